@@ -1,0 +1,38 @@
+# polishpath — two commands on a fresh machine with Python 3.11+:
+#   make demo   create .venv, install, run the main job on the built-in hemisphere into out/
+#   make test   create .venv, install with test extras, run the whole test suite
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+OUT    ?= out
+
+.PHONY: demo test venv install install-test system-deps bench clean
+
+$(BIN)/python:
+	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "polishpath needs Python 3.11 or newer, found " + sys.version.split()[0]'
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+
+venv: $(BIN)/python
+
+install: venv
+	$(BIN)/python -m pip install -q -e .
+
+install-test: venv
+	$(BIN)/python -m pip install -q -e '.[test]'
+
+# Debian packages the browser test needs (headless chromium); skipped when present or not root.
+system-deps:
+	@bash scripts/install-system-deps.sh
+
+demo: install
+	$(BIN)/polishpath plan hemisphere --spacing 0.5 --seed 1 -o $(OUT)
+
+test: install-test system-deps
+	$(BIN)/python -m pytest -q
+
+bench: install-test
+	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis

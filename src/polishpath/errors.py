@@ -1,0 +1,127 @@
+"""Errors raised by polishpath.
+
+One base class, :class:`PolishPathError`, and a specific subclass per problem,
+in the style of shapely: every message says what is wrong *and* what to do.
+The command line catches :class:`PolishPathError`, prints its message and exits
+with :attr:`PolishPathError.exit_code`; it never shows a traceback for bad input.
+"""
+
+from __future__ import annotations
+
+
+class PolishPathError(Exception):
+    """Base class of every error polishpath raises on purpose.
+
+    Parameters
+    ----------
+    message
+        What went wrong, in the user's terms.
+    hint
+        What to do about it (optional). Appended to the message.
+    """
+
+    #: process exit code used by the command line for this error
+    exit_code: int = 2
+
+    def __init__(self, message: str, hint: str | None = None):
+        self.message = message
+        self.hint = hint
+        super().__init__(message if not hint else f"{message} {hint}")
+
+
+# --- input: files and specs ---------------------------------------------------------
+
+
+class InputError(PolishPathError):
+    """Something the user gave us cannot be used (file, spec, option)."""
+
+
+class MeshFileError(InputError):
+    """A mesh file is missing, empty, unreadable or of an unknown format."""
+
+
+class SpecError(InputError):
+    """A surface spec (built-in name with parameters, or a TOML file) is invalid."""
+
+
+class ParameterError(InputError, ValueError):
+    """A numeric or named parameter is out of range or inconsistent."""
+
+
+# --- input: mesh validity -----------------------------------------------------------
+
+
+class MeshError(InputError):
+    """The mesh is readable but not usable as it is."""
+
+
+class NonFiniteError(MeshError):
+    """Vertex coordinates contain NaN or infinity."""
+
+
+class NonManifoldError(MeshError):
+    """Edges shared by more than two faces, or vertices whose fan is not one disc."""
+
+
+class ClosedMeshError(MeshError):
+    """The mesh has no boundary; the method needs an open patch (a disc, maybe with holes)."""
+
+
+class MultipleComponentsError(MeshError):
+    """The mesh is made of several disconnected pieces."""
+
+
+class DegenerateMeshError(MeshError):
+    """Too many zero-area faces, or nothing left after repair."""
+
+
+# --- stages ---------------------------------------------------------------------------
+
+
+class FlatteningError(PolishPathError):
+    """A flattening failed, or produced flipped / overlapping triangles."""
+
+
+class PlanningError(PolishPathError):
+    """A path could not be planned (region too small for the spacing, no dwell point...)."""
+
+
+class SpacingTooLargeError(PlanningError, ParameterError):
+    """The dwell-point spacing is too large for the region: fewer than two dwell points fit."""
+
+
+class MappingError(PolishPathError):
+    """A planar point could not be carried back to the surface."""
+
+
+class SmoothingError(PolishPathError):
+    """The smoothing curve could not be built or interpolated."""
+
+
+class ExportError(PolishPathError):
+    """An output file could not be written."""
+
+
+class MissingDependencyError(PolishPathError, ImportError):
+    """An optional dependency is needed for the feature that was asked for."""
+
+    def __init__(self, package: str, feature: str, extra: str | None = None):
+        how = f"pip install 'polishpath[{extra}]'" if extra else f"pip install {package}"
+        super().__init__(
+            f"{feature} needs the optional package '{package}', which is not installed.",
+            f"Install it with: {how}",
+        )
+
+
+def require(module: str, feature: str, extra: str | None = None, package: str | None = None):
+    """Import an optional dependency or raise :class:`MissingDependencyError`.
+
+    Optional dependencies fail only when the feature that needs them is used
+    (the trimesh way), never at import time of polishpath.
+    """
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise MissingDependencyError(package or module, feature, extra) from exc

@@ -1,0 +1,185 @@
+"""Mesh maths shared by every stage: angles, areas, normals, edges, boundary loops.
+
+The one place for these formulas (prysm's "maths in one place"). All functions
+are vectorised numpy and take plain ``(V, 3)`` / ``(V, 2)`` vertex arrays and
+``(F, 3)`` int face arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+
+def corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Interior angle at each triangle corner.
+
+    Parameters
+    ----------
+    vertices : (V, 2) or (V, 3) float
+        Vertex positions, mm.
+    faces : (F, 3) int
+        Triangles.
+
+    Returns
+    -------
+    angles : (F, 3) float64
+        Angle in radians at corner ``faces[:, k]``. Computed with ``atan2`` of
+        the cross and dot products, so slivers stay accurate.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    p = v[f]  # (F, 3, d)
+    out = np.empty(f.shape, dtype=np.float64)
+    for k in range(3):
+        a = p[:, (k + 1) % 3] - p[:, k]
+        b = p[:, (k + 2) % 3] - p[:, k]
+        dot = np.einsum("ij,ij->i", a, b)
+        if v.shape[1] == 2:
+            cr = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        else:
+            cr = np.linalg.norm(np.cross(a, b), axis=1)
+        out[:, k] = np.arctan2(cr, dot)
+    return out
+
+
+def face_areas(vertices: np.ndarray, faces: np.ndarray, signed: bool = False) -> np.ndarray:
+    """Triangle areas, mm^2, shape (F,). ``signed`` only for 2D vertices (counter-clockwise positive)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    p = v[np.asarray(faces)]
+    a = p[:, 1] - p[:, 0]
+    b = p[:, 2] - p[:, 0]
+    if v.shape[1] == 2:
+        cr = 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        return cr if signed else np.abs(cr)
+    if signed:
+        raise ValueError("signed areas need 2D vertices")
+    return 0.5 * np.linalg.norm(np.cross(a, b), axis=1)
+
+
+def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit face normals, (F, 3), following the face winding (zero for degenerate faces)."""
+    p = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    ln = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, ln, out=np.zeros_like(n), where=ln > 0)
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit vertex normals, (V, 3): corner-angle-weighted mean of the face normals."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    fn = face_normals(v, f)
+    ang = corner_angles(v, f)
+    vn = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(vn, f[:, k], fn * ang[:, k : k + 1])
+    ln = np.linalg.norm(vn, axis=1, keepdims=True)
+    return np.divide(vn, ln, out=np.zeros_like(vn), where=ln > 0)
+
+
+def directed_edges(faces: np.ndarray) -> np.ndarray:
+    """Directed half-edges ``(F*3, 2)``: row ``3*f + k`` is ``faces[f, k] -> faces[f, (k+1)%3]``."""
+    f = np.asarray(faces, dtype=np.int64)
+    return np.stack([f, np.roll(f, -1, axis=1)], axis=2).reshape(-1, 2)
+
+
+def edge_face_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Undirected edges and how many faces use each.
+
+    Returns
+    -------
+    edges : (E, 2) int64
+        Unique undirected edges, sorted vertex pair.
+    counts : (E,) int64
+        Number of faces sharing each edge (1: boundary, 2: interior, >2: non-manifold).
+    """
+    he = np.sort(directed_edges(faces), axis=1)
+    edges, counts = np.unique(he, axis=0, return_counts=True)
+    return edges, counts
+
+
+def boundary_edges(faces: np.ndarray) -> np.ndarray:
+    """Directed boundary half-edges (B, 2), oriented as in their face."""
+    he = directed_edges(faces)
+    key = np.sort(he, axis=1)
+    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return he[counts[inv.ravel()] == 1]
+
+
+def boundary_loops(faces: np.ndarray) -> list[np.ndarray]:
+    """Boundary loops of a manifold-with-boundary mesh, longest first.
+
+    Each loop is an int64 array of vertex indices, ordered along the face
+    winding (counter-clockwise seen from the normal side for the outer loop of
+    a disc), not repeated at the end. Assumes every boundary vertex has one
+    outgoing boundary half-edge (checked by the surface validation).
+    """
+    be = boundary_edges(faces)
+    if len(be) == 0:
+        return []
+    nxt = {int(a): int(b) for a, b in be}
+    seen: set[int] = set()
+    loops = []
+    for start in be[:, 0]:
+        start = int(start)
+        if start in seen:
+            continue
+        loop = [start]
+        seen.add(start)
+        cur = nxt[start]
+        guard = 0
+        while cur != start and guard <= len(be):
+            if cur in seen:  # figure-eight boundary; stop this walk
+                break
+            loop.append(cur)
+            seen.add(cur)
+            cur = nxt.get(cur, start)
+            guard += 1
+        loops.append(np.array(loop, dtype=np.int64))
+    loops.sort(key=len, reverse=True)
+    return loops
+
+
+def boundary_vertex_mask(n_vertices: int, faces: np.ndarray) -> np.ndarray:
+    """Boolean (V,) mask, True on boundary vertices."""
+    mask = np.zeros(n_vertices, dtype=bool)
+    be = boundary_edges(faces)
+    mask[be.ravel()] = True
+    return mask
+
+
+def vertex_face_incidence(n_vertices: int, faces: np.ndarray) -> sp.csr_matrix:
+    """Sparse (V, F) incidence matrix, 1 where vertex v is a corner of face f."""
+    f = np.asarray(faces, dtype=np.int64)
+    rows = f.ravel()
+    cols = np.repeat(np.arange(len(f)), 3)
+    return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, len(f)))
+
+
+def face_adjacency(faces: np.ndarray) -> np.ndarray:
+    """Pairs of faces sharing an edge, (P, 2) int64 (manifold edges only)."""
+    f = np.asarray(faces, dtype=np.int64)
+    he = np.sort(directed_edges(f), axis=1)
+    fid = np.repeat(np.arange(len(f)), 3)
+    order = np.lexsort((he[:, 1], he[:, 0]))
+    he, fid = he[order], fid[order]
+    same = np.all(he[1:] == he[:-1], axis=1)
+    return np.stack([fid[:-1][same], fid[1:][same]], axis=1)
+
+
+def connected_components(faces: np.ndarray) -> np.ndarray:
+    """Component label of each face (faces connected through shared edges), (F,) int64."""
+    from scipy.sparse.csgraph import connected_components as cc
+
+    f = np.asarray(faces)
+    adj = face_adjacency(f)
+    n = len(f)
+    g = sp.coo_matrix((np.ones(len(adj)), (adj[:, 0], adj[:, 1])), shape=(n, n))
+    _, labels = cc(g, directed=False)
+    return labels.astype(np.int64)
+
+
+def surface_area(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Total area, mm^2."""
+    return float(face_areas(vertices, faces).sum())

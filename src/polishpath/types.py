@@ -1,0 +1,429 @@
+"""The plain data that flows between the stages.
+
+``Surface --flatten--> Flattening --plan--> PlanarPath --map--> SurfacePath --smooth--> ToolPath``
+
+Every box is a frozen dataclass of numpy arrays plus the parameters that made
+it (:class:`Provenance`). Stages import these types and nothing of each other's
+internals, so a stage can be swapped (MABF / ABF / LSCM; pseudo-random / raster
+/ spiral ...) without touching the others. ``tests/test_architecture.py``
+guards that rule.
+
+Units: millimetres for lengths, radians for angles, seconds for times, unless a
+field name says otherwise (``feed_mm_min``, ``period_ms``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ._version import __version__
+
+
+def _frozen_array(a, dtype=None, ndim: int | None = None, cols: int | None = None, name: str = "array"):
+    arr = np.array(a, dtype=dtype, copy=True)
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
+    if cols is not None and (arr.ndim < 2 or arr.shape[1] != cols):
+        raise ValueError(f"{name} must have shape (n, {cols}), got {arr.shape}")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """What produced a result: the stage, its method, its parameters, seed and version.
+
+    Attributes
+    ----------
+    stage : str
+        ``"surface"``, ``"flatten"``, ``"plan"``, ``"map"``, ``"smooth"``, ``"simulate"``.
+    method : str
+        Algorithm name within the stage (``"mabf"``, ``"pseudorandom"`` ...).
+    params : dict
+        Every parameter that influenced the result (JSON-serialisable values).
+    seed : int or None
+        Seed of the random generator, for random stages.
+    version : str
+        polishpath version.
+    """
+
+    stage: str
+    method: str
+    params: dict[str, Any] = field(default_factory=dict)
+    seed: int | None = None
+    version: str = __version__
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "stage": self.stage,
+            "method": self.method,
+            "params": dict(self.params),
+            "seed": self.seed,
+            "version": self.version,
+        }
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One observation made while validating or repairing a mesh.
+
+    Attributes
+    ----------
+    code : str
+        Stable machine-readable code, e.g. ``"duplicate_vertices"``.
+    message : str
+        Human-readable sentence.
+    count : int
+        How many items were affected (vertices, faces, edges ...).
+    repaired : bool
+        True when polishpath fixed it on the way in.
+    severity : str
+        ``"info"``, ``"warning"`` or ``"error"``.
+    """
+
+    code: str
+    message: str
+    count: int = 0
+    repaired: bool = False
+    severity: str = "info"
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class Surface:
+    """A triangle mesh of the part to polish, in millimetres.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64
+        Vertex positions, mm.
+    faces : (F, 3) int64
+        Vertex indices of each triangle, consistently oriented.
+    name : str
+        Short name (file stem or built-in name).
+    source : str
+        Where it came from: a file path, a built-in spec such as
+        ``"hemisphere:R=30,triangles=1119"`` or a TOML spec path.
+    params : dict
+        Parameters that generated it (analytic surfaces) or load options.
+    findings : tuple of Finding
+        What validation found and repaired on the way in.
+    sag : callable or None
+        For analytic surfaces, ``sag(x, y) -> z`` in mm (vectorised), used to
+        check that points lie on the true surface; None for meshes.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    name: str = "surface"
+    source: str = ""
+    params: dict[str, Any] = field(default_factory=dict)
+    findings: tuple[Finding, ...] = ()
+    sag: Any = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "vertices", _frozen_array(self.vertices, np.float64, 2, 3, "vertices"))
+        object.__setattr__(self, "faces", _frozen_array(self.faces, np.int64, 2, 3, "faces"))
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.vertices.shape[0])
+
+    @property
+    def n_faces(self) -> int:
+        return int(self.faces.shape[0])
+
+    def to_trimesh(self):
+        """The mesh as a :class:`trimesh.Trimesh` (no processing)."""
+        import trimesh
+
+        return trimesh.Trimesh(np.array(self.vertices), np.array(self.faces), process=False)
+
+
+@dataclass(frozen=True)
+class Region:
+    """A planar region: one outer boundary loop and any number of holes, in mm.
+
+    Attributes
+    ----------
+    outer : (n, 2) float64
+        Outer boundary polygon, counter-clockwise, not repeated at the end.
+    holes : tuple of (m, 2) float64
+        Hole polygons, clockwise, not repeated at the end.
+    """
+
+    outer: np.ndarray
+    holes: tuple[np.ndarray, ...] = ()
+
+    def __post_init__(self):
+        outer = np.array(self.outer, dtype=np.float64)
+        if outer.ndim != 2 or outer.shape[1] != 2 or len(outer) < 3:
+            raise ValueError(f"outer boundary must be an (n>=3, 2) array, got shape {outer.shape}")
+        outer = _orient(outer, ccw=True)
+        holes = []
+        for h in self.holes:
+            h = np.array(h, dtype=np.float64)
+            if h.ndim != 2 or h.shape[1] != 2 or len(h) < 3:
+                raise ValueError(f"hole must be an (m>=3, 2) array, got shape {h.shape}")
+            holes.append(_frozen_array(_orient(h, ccw=False)))
+        object.__setattr__(self, "outer", _frozen_array(outer))
+        object.__setattr__(self, "holes", tuple(holes))
+
+    @property
+    def loops(self) -> tuple[np.ndarray, ...]:
+        """All boundary loops, outer first."""
+        return (self.outer, *self.holes)
+
+    @property
+    def area(self) -> float:
+        """Enclosed area in mm^2 (outer minus holes)."""
+        return float(_signed_area(self.outer) + sum(_signed_area(h) for h in self.holes))
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """``(xmin, ymin, xmax, ymax)`` in mm."""
+        lo = self.outer.min(axis=0)
+        hi = self.outer.max(axis=0)
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+    @property
+    def centroid(self) -> np.ndarray:
+        """Area centroid of the region, (2,) mm."""
+        tot_a = 0.0
+        c = np.zeros(2)
+        for loop in self.loops:
+            x, y = loop[:, 0], loop[:, 1]
+            xn, yn = np.roll(x, -1), np.roll(y, -1)
+            cr = x * yn - xn * y
+            tot_a += cr.sum() / 2.0
+            c += np.array([((x + xn) * cr).sum(), ((y + yn) * cr).sum()]) / 6.0
+        return c / tot_a if tot_a != 0 else self.outer.mean(axis=0)
+
+
+def _signed_area(loop: np.ndarray) -> float:
+    x, y = loop[:, 0], loop[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def _orient(loop: np.ndarray, ccw: bool) -> np.ndarray:
+    a = _signed_area(loop)
+    if (a > 0) != ccw:
+        return loop[::-1].copy()
+    return loop
+
+
+@dataclass(frozen=True)
+class Flattening:
+    """A planar parameterisation of a :class:`Surface`.
+
+    Attributes
+    ----------
+    surface : Surface
+        The 3D mesh that was flattened (same vertex and face indexing).
+    uv : (V, 2) float64
+        Planar vertex positions, mm; scaled so that the planar area equals the
+        3D surface area, centred on the origin.
+    angles : (F, 3) float64
+        Planar triangle angles (radians) at the corners ``faces[:, k]``; for
+        angle-based methods, the solved angles (before layout).
+    residuals : dict of str -> ndarray
+        Constraint residuals of the solved angles: ``"triangle"`` (F,), ``"vertex"``
+        (interior vertices,), ``"wheel"`` (interior vertices,), in radians (wheel:
+        log-sine units). Empty for methods that do not solve angles.
+    metrics : dict of str -> float
+        Distortion figures (see :func:`polishpath.flatten.metrics`).
+    timings : dict of str -> float
+        Seconds spent per step (``"angles"``, ``"layout"``, ``"total"``).
+    provenance : Provenance
+    """
+
+    surface: Surface
+    uv: np.ndarray
+    angles: np.ndarray
+    residuals: dict[str, np.ndarray] = field(default_factory=dict)
+    metrics: dict[str, float] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+    provenance: Provenance = field(default_factory=lambda: Provenance("flatten", "unknown"))
+
+    def __post_init__(self):
+        object.__setattr__(self, "uv", _frozen_array(self.uv, np.float64, 2, 2, "uv"))
+        object.__setattr__(self, "angles", _frozen_array(self.angles, np.float64, 2, 3, "angles"))
+
+
+@dataclass(frozen=True)
+class PlanarPath:
+    """A tool path through dwell points on a square grid in the plane.
+
+    Attributes
+    ----------
+    uv : (N, 2) float64
+        Dwell points in path order, mm, in the plane of the region.
+    ij : (N, 2) int64
+        Integer grid indices of each dwell point: ``uv = origin + R(rotation) @ (ij * spacing)``.
+    spacing : float
+        Grid spacing in the plane, mm.
+    origin : (2,) float64
+        Plane position of grid index (0, 0), mm.
+    rotation : float
+        Grid rotation, radians (counter-clockwise).
+    pattern : str
+        ``"pseudorandom"``, ``"raster"``, ``"spiral"``, ``"rectangular"`` ...
+    pieces : (K+1,) int64
+        Offsets into ``uv`` of the K continuous pieces: piece k is
+        ``uv[pieces[k]:pieces[k+1]]``. One piece is ``[0, N]``. Between pieces the
+        tool lifts (the region was split by the grid into unconnected parts).
+    unreached : (M, 2) float64
+        Dwell points inside the region that the path does not visit (should be
+        empty for the pseudo-random planner), mm.
+    n_inside : int
+        Number of grid points inside the region (visited + unreached).
+    provenance : Provenance
+    stats : dict
+        Figures the planner measured (iterations, turnarounds, time ...).
+    """
+
+    uv: np.ndarray
+    ij: np.ndarray
+    spacing: float
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    rotation: float = 0.0
+    pattern: str = "pseudorandom"
+    pieces: np.ndarray | None = None
+    unreached: np.ndarray | None = None
+    n_inside: int = -1
+    provenance: Provenance = field(default_factory=lambda: Provenance("plan", "unknown"))
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        uv = _frozen_array(self.uv, np.float64, 2, 2, "uv")
+        object.__setattr__(self, "uv", uv)
+        object.__setattr__(self, "ij", _frozen_array(self.ij, np.int64, 2, 2, "ij"))
+        object.__setattr__(self, "origin", _frozen_array(self.origin, np.float64, 1, None, "origin"))
+        pieces = self.pieces if self.pieces is not None else [0, len(uv)]
+        object.__setattr__(self, "pieces", _frozen_array(pieces, np.int64, 1, None, "pieces"))
+        unreached = self.unreached if self.unreached is not None else np.zeros((0, 2))
+        object.__setattr__(self, "unreached", _frozen_array(unreached, np.float64, 2, 2, "unreached"))
+        if self.n_inside < 0:
+            object.__setattr__(self, "n_inside", int(len(uv) + len(unreached)))
+
+    @property
+    def n_points(self) -> int:
+        return int(self.uv.shape[0])
+
+
+@dataclass(frozen=True)
+class SurfacePath:
+    """A planar path carried onto the 3D surface.
+
+    Attributes
+    ----------
+    xyz : (N, 3) float64
+        Dwell points on the surface, mm, in path order.
+    normals : (N, 3) float64
+        Unit surface normals at the dwell points (interpolated vertex normals).
+    face_ids : (N,) int64
+        Triangle containing each point.
+    bary : (N, 3) float64
+        Area (barycentric) coordinates of each point in its triangle.
+    dwell_weight : (N,) float64
+        Relative dwell time per point (mean 1): the surface area each point
+        stands for, so that uniform removal stays uniform on the part.
+    planar : PlanarPath
+        The path this was mapped from.
+    provenance : Provenance
+    stats : dict
+        3D step statistics and density variation.
+    """
+
+    xyz: np.ndarray
+    normals: np.ndarray
+    face_ids: np.ndarray
+    bary: np.ndarray
+    dwell_weight: np.ndarray
+    planar: PlanarPath
+    provenance: Provenance = field(default_factory=lambda: Provenance("map", "unknown"))
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "xyz", _frozen_array(self.xyz, np.float64, 2, 3, "xyz"))
+        object.__setattr__(self, "normals", _frozen_array(self.normals, np.float64, 2, 3, "normals"))
+        object.__setattr__(self, "face_ids", _frozen_array(self.face_ids, np.int64, 1, None, "face_ids"))
+        object.__setattr__(self, "bary", _frozen_array(self.bary, np.float64, 2, 3, "bary"))
+        object.__setattr__(self, "dwell_weight", _frozen_array(self.dwell_weight, np.float64, 1, None, "dwell_weight"))
+
+
+@dataclass(frozen=True)
+class NurbsCurve:
+    """A NURBS curve (all weights 1 for interpolation: a non-rational B-spline).
+
+    Attributes
+    ----------
+    degree : int
+        Polynomial degree p (3 for the paper's cubic, order K = p + 1 = 4).
+    knots : (n + p + 2,) float64
+        Clamped, non-decreasing knot vector on [0, 1].
+    control_points : (n + 1, d) float64
+        Control points, mm.
+    weights : (n + 1,) float64
+        Weights (ones for a B-spline).
+    """
+
+    degree: int
+    knots: np.ndarray
+    control_points: np.ndarray
+    weights: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "knots", _frozen_array(self.knots, np.float64, 1, None, "knots"))
+        cp = _frozen_array(self.control_points, np.float64, 2, None, "control_points")
+        object.__setattr__(self, "control_points", cp)
+        w = self.weights if self.weights is not None else np.ones(len(cp))
+        object.__setattr__(self, "weights", _frozen_array(w, np.float64, 1, None, "weights"))
+
+
+@dataclass(frozen=True)
+class ToolPath:
+    """The smoothed path, densified for the machine.
+
+    Attributes
+    ----------
+    curve : NurbsCurve
+        Cubic curve through every dwell point (3D, mm).
+    dwell_params : (N,) float64
+        Curve parameter of each dwell point (``curve(dwell_params[k]) == dwell xyz[k]``).
+    samples : (M, 3) float64
+        Points at a constant interpolation period, mm (what the machine runs).
+    sample_params : (M,) float64
+        Curve parameter of each sample.
+    feed_mm_min : (M,) float64
+        Commanded feed at each sample, mm/min.
+    period_ms : float
+        Interpolation period, ms.
+    surface_path : SurfacePath
+        The dwell points this curve passes through.
+    provenance : Provenance
+    stats : dict
+        Feed fluctuation, chord error, deviation from the surface ...
+    """
+
+    curve: NurbsCurve
+    dwell_params: np.ndarray
+    samples: np.ndarray
+    sample_params: np.ndarray
+    feed_mm_min: np.ndarray
+    period_ms: float
+    surface_path: SurfacePath
+    provenance: Provenance = field(default_factory=lambda: Provenance("smooth", "unknown"))
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "dwell_params", _frozen_array(self.dwell_params, np.float64, 1, None, "dwell_params"))
+        object.__setattr__(self, "samples", _frozen_array(self.samples, np.float64, 2, 3, "samples"))
+        object.__setattr__(self, "sample_params", _frozen_array(self.sample_params, np.float64, 1, None, "sample_params"))
+        object.__setattr__(self, "feed_mm_min", _frozen_array(self.feed_mm_min, np.float64, 1, None, "feed_mm_min"))
