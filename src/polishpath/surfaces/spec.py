@@ -1,0 +1,221 @@
+"""Surface specs: ``name:key=value,...`` strings and TOML files.
+
+A SURFACE argument is one of
+
+* a mesh file: ``part.stl``, ``part.obj``, ``part.ply``, ``part.off``;
+* a built-in shape with optional parameters: ``hemisphere``,
+  ``hemisphere:R=30,triangles=100220``;
+* an analytic surface with scalar parameters:
+  ``asphere:R=80,k=-1,a4=1e-7,aperture=annulus,radius=25,inner_radius=6``;
+* a ``.toml`` spec file (see ``examples/zernike-annulus.toml``):
+
+  .. code-block:: toml
+
+     [surface]
+     type = "zernike"          # sphere | asphere | xy-polynomial | zernike | bspline
+     R = 200.0                 # base radius of curvature, mm (or c = 1/R in 1/mm)
+     k = 0.0
+     order = "fringe"          # or "standard" (Noll)
+     norm_radius = 25.0
+     coeffs = [0, 0, 0, 0.002, 0.001]
+     triangles = 8000
+
+     [aperture]
+     type = "annulus"          # circle | rectangle | polygon | annulus | star
+     radius = 25.0
+     inner_radius = 6.0
+
+  A TOML spec may instead name a built-in (``builtin = "hemisphere"`` with
+  its parameters) or a mesh file (``mesh = "part.stl"``, ``units = "m"``).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError, SpecError
+from .aperture import APERTURE_TYPES, Aperture
+from .sag import BSplineSurface, EvenAsphere, XYPolynomial, ZernikeSag
+
+ANALYTIC_TYPES = ("sphere", "asphere", "xy-polynomial", "zernike", "bspline")
+_APERTURE_KEYS = {"radius", "inner_radius", "width", "height", "points", "n_points", "rotation", "center", "holes"}
+
+
+def parse_inline(spec: str) -> tuple[str, dict[str, Any]]:
+    """Split ``"name:key=value,key=value"`` into the name and a dict of values.
+
+    Values are parsed as int, float, or left as strings.
+    """
+    name, _, rest = spec.partition(":")
+    name = name.strip()
+    params: dict[str, Any] = {}
+    if rest.strip():
+        for item in rest.split(","):
+            if not item.strip():
+                continue
+            if "=" not in item:
+                raise SpecError(
+                    f"surface parameter {item.strip()!r} in {spec!r} has no value.",
+                    "Write parameters as name:key=value,key=value, e.g. hemisphere:R=30,triangles=5000.",
+                )
+            k, _, v = item.partition("=")
+            params[k.strip()] = _number(v.strip())
+    return name, params
+
+
+def _number(v: str):
+    try:
+        return int(v)
+    except ValueError:
+        pass
+    try:
+        return float(v)
+    except ValueError:
+        return v
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file, turning syntax errors into :class:`SpecError`."""
+    p = Path(path)
+    if not p.exists():
+        raise SpecError(f"spec file {str(p)!r} does not exist.", "Check the path.")
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{p.name} is not valid TOML: {exc}.", "Fix the line it names.") from None
+
+
+def aperture_from_dict(d: dict[str, Any]) -> Aperture:
+    """Build an :class:`Aperture` from ``{"type": ..., "radius": ..., ...}``."""
+    d = dict(d)
+    kind = d.pop("type", d.pop("aperture", "circle"))
+    if kind not in APERTURE_TYPES:
+        raise SpecError(f"unknown aperture type {kind!r}.", f"Choose one of: {', '.join(APERTURE_TYPES)}.")
+    unknown = set(d) - _APERTURE_KEYS
+    if unknown:
+        raise SpecError(f"unknown aperture parameter(s) {', '.join(sorted(unknown))}.",
+                        f"Aperture parameters: {', '.join(sorted(_APERTURE_KEYS))}.")
+    kw: dict[str, Any] = {"kind": kind}
+    for k, v in d.items():
+        if k == "points":
+            kw[k] = tuple(tuple(map(float, p)) for p in v)
+        elif k == "holes":
+            kw[k] = tuple(tuple(tuple(map(float, p)) for p in h) for h in v)
+        elif k == "center":
+            kw[k] = tuple(map(float, v))
+        elif k == "n_points":
+            kw[k] = int(v)
+        else:
+            kw[k] = float(v)
+    return Aperture(**kw)
+
+
+def _curvature(d: dict[str, Any]) -> float:
+    if "c" in d and "R" in d:
+        raise SpecError("give either the curvature c or the radius R, not both.")
+    if "c" in d:
+        return float(d.pop("c"))
+    if "R" in d:
+        R = float(d.pop("R"))
+        if R == 0:
+            raise SpecError("radius of curvature R = 0 is not a surface.", "Use R = inf (or c = 0) for a plane.")
+        return 0.0 if math.isinf(R) else 1.0 / R
+    return 0.0
+
+
+def _indexed(d: dict[str, Any], prefix: str, start: int, step: int = 1) -> list[float]:
+    """Collect scalar keys like a4, a6 ... or Z1, Z2 ... into a list (inline specs)."""
+    found = {}
+    for k in list(d):
+        if k.startswith(prefix) and k[len(prefix):].isdigit():
+            found[int(k[len(prefix):])] = float(d.pop(k))
+    if not found:
+        return []
+    out = []
+    for idx in range(start, max(found) + 1, step):
+        out.append(found.pop(idx, 0.0))
+    if found:
+        raise SpecError(f"coefficient name(s) {', '.join(prefix + str(i) for i in found)} are not valid.")
+    return out
+
+
+def analytic_from_dict(surface: dict[str, Any], aperture: dict[str, Any] | None, source: str):
+    """Build and mesh an analytic surface from spec dictionaries.
+
+    Parameters
+    ----------
+    surface : dict
+        ``type`` (sphere | asphere | xy-polynomial | zernike | bspline), its
+        coefficients and ``triangles``.
+    aperture : dict or None
+        Aperture spec; defaults to a 25 mm radius circle (the unit square in
+        (u, v) for a B-spline).
+    """
+    from ..types import Surface
+    from .analytic import mesh_bspline_surface, mesh_sag_surface
+
+    d = dict(surface)
+    kind = d.pop("type")
+    if kind not in ANALYTIC_TYPES:
+        raise SpecError(f"unknown analytic surface type {kind!r}.", f"Choose one of: {', '.join(ANALYTIC_TYPES)}.")
+    triangles = int(d.pop("triangles", 5000))
+    d.pop("units", None)
+    params = {"type": kind, **{k: v for k, v in surface.items() if k != "type"}}
+    try:
+        if kind == "bspline":
+            net = np.asarray(d.pop("control_net"), dtype=np.float64)
+            deg = int(d.pop("degree", 3))
+            sag_obj = BSplineSurface(net, deg)
+        else:
+            c = _curvature(d)
+            k = float(d.pop("k", 0.0))
+            if kind == "sphere":
+                sag_obj = EvenAsphere(c=c, k=0.0)
+            elif kind == "asphere":
+                a = d.pop("a", None)
+                a = [float(x) for x in a] if a is not None else _indexed(d, "a", 4, 2)
+                sag_obj = EvenAsphere(c=c, k=k, a=tuple(a))
+            elif kind == "xy-polynomial":
+                co = d.pop("coeffs", None)
+                co = [float(x) for x in co] if co is not None else _indexed(d, "C", 2)
+                sag_obj = XYPolynomial(c=c, k=k, coeffs=tuple(co), norm_radius=float(d.pop("norm_radius", 1.0)))
+            else:
+                co = d.pop("coeffs", None)
+                co = [float(x) for x in co] if co is not None else _indexed(d, "Z", 1)
+                sag_obj = ZernikeSag(c=c, k=k, coeffs=tuple(co), norm_radius=float(d.pop("norm_radius", 25.0)),
+                                     order=str(d.pop("order", "fringe")))
+    except KeyError as exc:
+        raise SpecError(f"{kind} surface spec is missing {exc.args[0]!r}.") from None
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, ParameterError):
+            raise
+        raise SpecError(f"{kind} surface spec has a bad value: {exc}.") from None
+    if d:
+        raise SpecError(f"unknown parameter(s) for a {kind} surface: {', '.join(sorted(d))}.")
+    if kind == "bspline":
+        ap = aperture_from_dict(aperture) if aperture else Aperture("rectangle", width=1.0, height=1.0, center=(0.5, 0.5))
+        surf, _ = mesh_bspline_surface(sag_obj, ap, triangles, name="bspline", source=source,
+                                       params={**params, "aperture": ap.params()})
+        return surf
+    ap = aperture_from_dict(aperture) if aperture else Aperture("circle", radius=25.0)
+    surf = mesh_sag_surface(sag_obj, ap, triangles, name=kind, source=source, params={**params, "aperture": ap.params()})
+    assert isinstance(surf, Surface)
+    return surf
+
+
+def split_inline_aperture(params: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """Separate aperture keys (``aperture=annulus,radius=..``) from surface keys in an inline spec."""
+    p = dict(params)
+    if "aperture" not in p and not (_APERTURE_KEYS & set(p)):
+        return p, None
+    ap = {"type": p.pop("aperture", "circle")}
+    for k in list(p):
+        if k in _APERTURE_KEYS:
+            ap[k] = p.pop(k)
+    return p, ap
