@@ -288,6 +288,16 @@ def validate_mesh(
             "Separate or remove the extra faces in a mesh editor (e.g. MeshLab: Select non-manifold edges, then delete).",
         )
 
+    # 4b. non-manifold vertices (bow-ties)
+    fans = _vertex_fan_counts(len(v), f)
+    bow = fans > 1
+    if bow.any():
+        raise NonManifoldError(
+            f"{name} has {int(bow.sum())} non-manifold vertices (two or more face fans meet at one point), "
+            f"e.g. at {_fmt_pts(v[bow])} mm.",
+            "Split those vertices or remove the touching faces in a mesh editor.",
+        )
+
     # 5. components
     labels = meshops.connected_components(f)
     ncomp = int(labels.max()) + 1
@@ -308,16 +318,6 @@ def validate_mesh(
     f, n_flip = _orient_consistently(f)
     if n_flip:
         findings.append(Finding("orientation", f"flipped {n_flip} faces to a consistent orientation", n_flip, True, "warning"))
-
-    # 7. non-manifold vertices (bow-ties)
-    fans = _vertex_fan_counts(len(v), f)
-    bow = fans > 1
-    if bow.any():
-        raise NonManifoldError(
-            f"{name} has {int(bow.sum())} non-manifold vertices (two or more face fans meet at one point), "
-            f"e.g. at {_fmt_pts(v[bow])} mm.",
-            "Split those vertices or remove the touching faces in a mesh editor.",
-        )
 
     # 8. boundary
     loops = meshops.boundary_loops(f)

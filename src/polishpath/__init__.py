@@ -1,0 +1,43 @@
+"""polishpath: pseudo-random polishing tool paths on free-form surfaces.
+
+The data flows one way, one subpackage per stage::
+
+    surfaces -> flatten -> plan -> mapping -> smooth -> export / simulate / report
+
+>>> import polishpath
+>>> job = polishpath.run(surface="hemisphere:triangles=5000", spacing=1.0, seed=7)  # doctest: +SKIP
+>>> job.save("out")  # doctest: +SKIP
+"""
+
+from ._version import __version__
+from .errors import PolishPathError
+from .types import Flattening, PlanarPath, Provenance, Region, Surface, SurfacePath, ToolPath
+
+
+def run(config=None, **options):
+    """Run the whole job (see :func:`polishpath.pipeline.run`)."""
+    from .pipeline import run as _run
+
+    return _run(config, **options)
+
+
+def load_surface(spec, **kw):
+    """Load a surface (see :func:`polishpath.surfaces.load_surface`)."""
+    from .surfaces import load_surface as _load
+
+    return _load(spec, **kw)
+
+
+__all__ = [
+    "Flattening",
+    "PlanarPath",
+    "PolishPathError",
+    "Provenance",
+    "Region",
+    "Surface",
+    "SurfacePath",
+    "ToolPath",
+    "__version__",
+    "load_surface",
+    "run",
+]

@@ -1,0 +1,313 @@
+"""The ``polishpath`` command line.
+
+Every command catches :class:`~polishpath.errors.PolishPathError`, prints its
+message (what is wrong, what to do) and exits non-zero; no traceback is shown
+for bad input. ``--json`` prints one JSON object of figures on stdout.
+
+Exit codes: 0 success, 1 unexpected internal error, 2 bad input or a stage
+that could not complete (the message says which), 130 interrupted (Ctrl-C).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any, Optional
+
+import typer
+
+from ._version import __version__
+from .errors import PolishPathError
+
+app = typer.Typer(
+    name="polishpath",
+    help=(
+        "Pseudo-random polishing tool paths on free-form surfaces.\n\n"
+        "SURFACE is a mesh file (.stl .obj .ply .off), a built-in shape with optional "
+        "parameters (hemisphere:R=30,triangles=5000 — see `polishpath surfaces`), an "
+        "analytic surface (asphere:R=80,k=-1,radius=20) or a .toml spec.\n\n"
+        "Examples:\n\n"
+        "  polishpath plan hemisphere --spacing 0.5 --seed 1 -o out\n\n"
+        "  polishpath info part.stl --units m\n\n"
+        "  polishpath flatten lilium.obj --method mabf -o flat.obj --json"
+    ),
+    no_args_is_help=True,
+    add_completion=False,
+    rich_markup_mode=None,
+    pretty_exceptions_enable=False,
+)
+
+
+def _version_cb(value: bool):
+    if value:
+        typer.echo(f"polishpath {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _main(
+    version: bool = typer.Option(False, "--version", callback=_version_cb, is_eager=True, help="Print the version and exit."),
+):
+    """polishpath command line."""
+
+
+def _fail(msg: str, code: int) -> None:
+    typer.echo(f"polishpath: error: {msg}", err=True)
+    raise typer.Exit(code)
+
+
+class _guard:
+    """Turn polishpath errors into a message and exit code; Ctrl-C into exit 130."""
+
+    def __init__(self, out_dir: Path | None = None):
+        self.out_dir = out_dir
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, et, ev, tb):
+        if et is None or issubclass(et, (typer.Exit, SystemExit)):
+            return False
+        if issubclass(et, PolishPathError):
+            _fail(str(ev), ev.exit_code)
+        if issubclass(et, KeyboardInterrupt):
+            if self.out_dir is not None:
+                from .pipeline import remove_partial
+
+                remove_partial(self.out_dir)
+            _fail("interrupted; no half-written files were left.", 130)
+        if issubclass(et, MemoryError):
+            _fail("ran out of memory. Try fewer triangles, a larger spacing, or a smaller part.", 2)
+        return False
+
+
+def _print_json(obj: Any) -> None:
+    from .pipeline import _jsonable
+
+    typer.echo(json.dumps(_jsonable(obj), indent=2))
+
+
+def _quiet(quiet: bool, json_out: bool) -> None:
+    from . import progress
+
+    if quiet or json_out:
+        progress.set_enabled(False)
+
+
+SURFACE_ARG = typer.Argument(..., metavar="SURFACE", help="Mesh file, built-in name[:key=value,...], analytic spec, or .toml spec.")
+UNITS_OPT = typer.Option(None, "--units", help="Units of a mesh file: mm (default), m, cm, um, in.")
+SCALE_OPT = typer.Option(None, "--scale", help="Extra scale factor for a mesh file, to millimetres.")
+COMPONENT_OPT = typer.Option("refuse", "--component", help="Several pieces in the mesh: 'refuse' (default) or 'largest'.")
+
+
+@app.command("surfaces")
+def surfaces_cmd(json_out: bool = typer.Option(False, "--json", help="Print JSON.")):
+    """List the built-in shapes and their parameters (mm, degrees).
+
+    Example: polishpath surfaces
+    """
+    from .surfaces import ANALYTIC_TYPES, BUILTINS
+
+    if json_out:
+        _print_json({n: {"parameters": b.defaults, "description": b.description} for n, b in BUILTINS.items()}
+                    | {"_analytic_types": list(ANALYTIC_TYPES)})
+        return
+    typer.echo("Built-in surfaces (use as NAME or NAME:key=value,...):\n")
+    for n, b in BUILTINS.items():
+        typer.echo(f"  {n:15s} {b.description}")
+        typer.echo(f"  {'':15s} " + ", ".join(f"{k}={v}" for k, v in b.defaults.items()))
+    typer.echo(f"\nAnalytic surfaces (inline or in a .toml spec): {', '.join(ANALYTIC_TYPES)}")
+    typer.echo("  e.g. asphere:R=80,k=-1,a4=1e-7,aperture=annulus,radius=25,inner_radius=6")
+
+
+@app.command("info")
+def info_cmd(
+    surface: str = SURFACE_ARG,
+    json_out: bool = typer.Option(False, "--json", help="Print JSON."),
+    units: Optional[str] = UNITS_OPT,
+    scale: Optional[float] = SCALE_OPT,
+    component: str = COMPONENT_OPT,
+):
+    """Describe a surface: vertices, faces, boundary loops, area, bounds, findings.
+
+    Examples: polishpath info part.stl --units m ;  polishpath info hemisphere --json
+    """
+    from .surfaces import describe_surface, load_surface
+
+    with _guard():
+        s = load_surface(surface, units=units, scale=scale, component=component)
+        d = describe_surface(s)
+        if json_out:
+            _print_json(d)
+            return
+        typer.echo(f"{d['name']}  ({d['source']})")
+        typer.echo(f"  vertices        {d['vertices']}")
+        typer.echo(f"  faces           {d['faces']}")
+        loops = ", ".join(f"{n} vertices / {L:.2f} mm" for n, L in zip(d["loop_vertices"], d["loop_lengths_mm"]))
+        typer.echo(f"  boundary loops  {d['boundary_loops']}" + (f"  ({loops})" if loops else ""))
+        typer.echo(f"  area            {d['area_mm2']:.4f} mm^2")
+        typer.echo("  bounding box    " + " .. ".join("(" + ", ".join(f"{c:.3f}" for c in b) + ")" for b in (d["bbox_min"], d["bbox_max"])) + " mm")
+        el = d["edge_length_mm"]
+        typer.echo(f"  edge length     min {el['min']:.4g}  mean {el['mean']:.4g}  max {el['max']:.4g} mm")
+        typer.echo(f"  smallest angle  {d['min_angle_deg']:.3g} deg")
+        typer.echo(f"  topology        Euler characteristic {d['euler_characteristic']}" + ("  (a disc)" if d["disc_like"] else ""))
+        if d["findings"]:
+            typer.echo("  findings:")
+            for f in d["findings"]:
+                typer.echo(f"    - [{f['severity']}] {f['message']}" + ("  (repaired)" if f["repaired"] else ""))
+        else:
+            typer.echo("  findings        none")
+
+
+@app.command("flatten")
+def flatten_cmd(
+    surface: str = SURFACE_ARG,
+    method: str = typer.Option("mabf", "--method", "-m", help="mabf (default), abf, lscm, projection."),
+    output: Optional[Path] = typer.Option(None, "-o", "--output", help="Write an OBJ: v = 3D, vt = planar (mm)."),
+    json_out: bool = typer.Option(False, "--json", help="Print the distortion metrics as JSON."),
+    units: Optional[str] = UNITS_OPT,
+    scale: Optional[float] = SCALE_OPT,
+    component: str = COMPONENT_OPT,
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+):
+    """Flatten a surface to the plane and report its distortion.
+
+    Example: polishpath flatten lilium.obj --method mabf -o flat.obj --json
+    """
+    from . import progress
+    from .pipeline import _atomic_write_text, flatten_surface
+    from .surfaces import load_surface
+
+    _quiet(quiet, json_out)
+    with _guard():
+        with progress.stage("reading surface"):
+            s = load_surface(surface, units=units, scale=scale, component=component)
+        with progress.stage(f"flattening ({method})"):
+            flat = flatten_surface(s, method)
+        if output is not None:
+            from .flatten import save_obj
+
+            output.parent.mkdir(parents=True, exist_ok=True)
+            _atomic_write_text(output, lambda fh: save_obj(flat, fh))
+        d = {"surface": s.source or s.name, "method": method, "vertices": s.n_vertices, "faces": s.n_faces,
+             "metrics": flat.metrics, "timings_s": flat.timings, "output": str(output) if output else None}
+        if json_out:
+            _print_json(d)
+            return
+        typer.echo(f"{s.name}: {s.n_faces} faces flattened with {method}")
+        for k, v in flat.metrics.items():
+            typer.echo(f"  {k:32s} {v:.6g}" if isinstance(v, float) else f"  {k:32s} {v}")
+        for k, v in flat.timings.items():
+            typer.echo(f"  time {k:27s} {v:.3f} s")
+        if output:
+            typer.echo(f"wrote {output}")
+
+
+@app.command("plan")
+def plan_cmd(
+    surface: Optional[str] = typer.Argument(None, metavar="SURFACE", help="Mesh file, built-in[:key=value,...], analytic spec or .toml spec (or set it in --config)."),
+    spacing: Optional[float] = typer.Option(None, "--spacing", "-s", help="Dwell-point spacing on the part, mm (default 0.5)."),
+    seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (default: drawn and recorded)."),
+    output: Optional[Path] = typer.Option(None, "-o", "--output", help="Output folder (default: out)."),
+    method: Optional[str] = typer.Option(None, "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection."),
+    pattern: Optional[str] = typer.Option(None, "--pattern", "-p", help="pseudorandom (default), raster, spiral, rectangular."),
+    spacing_on: Optional[str] = typer.Option(None, "--spacing-on", help="'surface' (default: no step on the part over sqrt(2) x spacing) or 'plane'."),
+    start: Optional[str] = typer.Option(None, "--start", help="Planar start point 'u,v' in mm (default: nearest the centre)."),
+    margin: Optional[float] = typer.Option(None, "--margin", help="Keep dwell points this far inside the boundary, mm."),
+    feed: Optional[float] = typer.Option(None, "--feed", help="Feed rate, mm/min."),
+    period: Optional[float] = typer.Option(None, "--period", help="Interpolation period, ms."),
+    chord_tol: Optional[float] = typer.Option(None, "--chord-tol", help="Chord error tolerance, mm."),
+    gcode: Optional[str] = typer.Option(None, "--gcode", help="'linear' (G01, default) or 'nurbs' (G06.2)."),
+    tool_radius: Optional[float] = typer.Option(None, "--tool-radius", help="Offset to the tool centre along the normal, mm."),
+    dwell_times: Optional[str] = typer.Option(None, "--dwell-times", help="CSV of per-dwell-point times (s) in path order."),
+    config: Optional[Path] = typer.Option(None, "--config", "-c", help="Job TOML holding any of these options (a run writes its own job.toml)."),
+    no_report: bool = typer.Option(False, "--no-report", help="Skip report.html and the PNG figures."),
+    units: Optional[str] = UNITS_OPT,
+    scale: Optional[float] = SCALE_OPT,
+    component: Optional[str] = typer.Option(None, "--component", help="Several pieces: 'refuse' (default) or 'largest'."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object of figures on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+):
+    """Plan a pseudo-random polishing path on a surface and write the machine files.
+
+    Writes into the output folder: path.csv (dwell points), toolpath.xyz (dense
+    X Y Z), toolpath.nc (G-code), summary.json, job.toml, flat.obj, run.npz and
+    report.html with PNG figures.
+
+    Examples:
+
+      polishpath plan hemisphere --spacing 0.5 --seed 1 -o out
+
+      polishpath plan part.stl --units m --spacing 0.3 --pattern raster -o out-raster
+
+      polishpath plan --config out/job.toml -o out-again
+    """
+    from .pipeline import JobConfig, run
+
+    _quiet(quiet, json_out)
+    out_dir = output or Path("out")
+    with _guard(out_dir):
+        opts = {
+            "surface": surface, "spacing": spacing, "seed": seed, "method": method, "pattern": pattern,
+            "spacing_on": spacing_on, "margin": margin, "feed_mm_min": feed, "period_ms": period,
+            "chord_tol_mm": chord_tol, "gcode": gcode, "tool_radius": tool_radius, "dwell_times": dwell_times,
+            "units": units, "scale": scale, "component": component,
+        }
+        if start is not None:
+            opts["start"] = _parse_pair(start, "--start")
+        if no_report:
+            opts["report"] = False
+        if config is not None:
+            cfg = JobConfig.from_toml(config, **opts)
+        else:
+            cfg = JobConfig(**{k: v for k, v in opts.items() if v is not None})
+        job = run(cfg)
+        written = job.save(out_dir)
+        summary = job.summary()
+        if json_out:
+            _print_json({"output": {k: str(v) for k, v in written.items()}, **summary})
+            return
+        _print_plan_summary(job, summary, written, out_dir)
+
+
+def _parse_pair(text: str, opt: str) -> tuple[float, float]:
+    from .errors import ParameterError
+
+    try:
+        a, b = (float(x) for x in text.split(","))
+    except ValueError:
+        raise ParameterError(f"{opt} takes two numbers 'u,v' in mm, got {text!r}.") from None
+    return a, b
+
+
+def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> None:
+    p = summary["plan"]
+    st = summary["map"]["stats"]
+    typer.echo(f"{job.surface.name}: {job.surface.n_faces} faces, flattened with {job.flattening.provenance.method}")
+    typer.echo(f"  {p['pattern']} path: {p['dwell_points']} dwell points, seed {summary['seed']}, "
+               f"spacing {job.config.spacing:g} mm on the part (planar {p['planar_spacing_mm']:.4g} mm)")
+    for key, label in (("step_mean_mm", "mean step on the part"), ("step_max_mm", "max step on the part"),
+                       ("share_normal_range", "steps in [s, sqrt(2) s]")):
+        if key in st:
+            typer.echo(f"  {label:28s} {st[key]:.4g}")
+    m = p.get("metrics", {})
+    for key in ("coverage", "directions_used", "crossings"):
+        if key in m:
+            typer.echo(f"  {key:28s} {m[key]}")
+    typer.echo(f"wrote {len(written)} files to {out_dir}/")
+    if "report" in written:
+        typer.echo(f"report: {written['report']}")
+
+
+def main() -> None:
+    """Console-script entry point."""
+    try:
+        app()
+    except KeyboardInterrupt:  # pragma: no cover
+        typer.echo("polishpath: interrupted", err=True)
+        sys.exit(130)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,424 @@
+"""The main job: surface -> flatten -> plan -> map -> smooth -> export.
+
+:func:`run` takes a :class:`JobConfig` (every option of ``polishpath plan``,
+also readable from a TOML file) and returns a :class:`Job` holding each
+stage's result; :meth:`Job.save` writes the machine files, ``summary.json``,
+``job.toml`` (to re-run exactly) and the report into a folder.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import random
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import progress
+from ._version import __version__
+from .errors import ParameterError, SpecError
+from .types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
+
+
+@dataclass
+class JobConfig:
+    """Every option of the main job. Lengths in mm, feed in mm/min, period in ms.
+
+    Attributes
+    ----------
+    surface : str
+        SURFACE as on the command line (mesh path, built-in spec, ``.toml``).
+    units, scale, component : optional
+        Mesh-file options (see :func:`polishpath.surfaces.load_mesh`).
+    method : str
+        Flattening: ``mabf`` (default), ``abf``, ``lscm``, ``projection``.
+    pattern : str
+        Path pattern: ``pseudorandom`` (default), ``raster``, ``spiral``, ``rectangular``.
+    spacing : float
+        Dwell-point spacing, mm. Honoured on the part by default (see ``spacing_on``).
+    spacing_on : {"surface", "plane"}
+        ``surface``: the planar spacing is reduced so that no step on the part
+        exceeds sqrt(2) x spacing; ``plane``: plain planar grid of that spacing.
+    seed : int or None
+        Seed of the random walk; None draws one (and records it).
+    start : (u, v) or None
+        Planar start point, mm; None: the dwell point nearest the region's centre.
+    margin : float
+        Keep dwell points at least this far inside the boundary (in the plane), mm.
+    feed_mm_min, period_ms, chord_tol_mm : float or None
+        Machine interpolation; None uses the smoothing stage's defaults.
+    gcode : {"linear", "nurbs"}
+        G-code flavour: dense G01 moves or Fanuc-style G06.2 NURBS blocks.
+    tool_radius : float
+        Offset contact points to the tool centre along the normal, mm (0: none).
+    dwell_times : str or None
+        CSV of per-dwell-point times (s), in path order.
+    report : bool
+        Write ``report.html`` and PNG figures.
+    """
+
+    surface: str = "hemisphere"
+    units: str | None = None
+    scale: float | None = None
+    component: str = "refuse"
+    method: str = "mabf"
+    pattern: str = "pseudorandom"
+    spacing: float = 0.5
+    spacing_on: str = "surface"
+    seed: int | None = None
+    start: tuple[float, float] | None = None
+    margin: float = 0.0
+    feed_mm_min: float | None = None
+    period_ms: float | None = None
+    chord_tol_mm: float | None = None
+    gcode: str = "linear"
+    tool_radius: float = 0.0
+    dwell_times: str | None = None
+    report: bool = True
+
+    def validate(self) -> None:
+        if not (isinstance(self.spacing, (int, float)) and math.isfinite(self.spacing) and self.spacing > 0):
+            raise ParameterError(f"spacing must be a positive number of mm, got {self.spacing!r}.")
+        if self.spacing_on not in ("surface", "plane"):
+            raise ParameterError(f"spacing_on must be 'surface' or 'plane', got {self.spacing_on!r}.")
+        if self.gcode not in ("linear", "nurbs"):
+            raise ParameterError(f"gcode must be 'linear' or 'nurbs', got {self.gcode!r}.")
+        if self.margin < 0 or not math.isfinite(self.margin):
+            raise ParameterError(f"margin must be >= 0 mm, got {self.margin!r}.")
+        if self.tool_radius < 0 or not math.isfinite(self.tool_radius):
+            raise ParameterError(f"tool radius must be >= 0 mm, got {self.tool_radius!r}.")
+        for name in ("feed_mm_min", "period_ms", "chord_tol_mm"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise ParameterError(f"{name} must be a positive number, got {v!r}.")
+        if self.seed is not None and (not isinstance(self.seed, int) or self.seed < 0):
+            raise ParameterError(f"seed must be a non-negative whole number, got {self.seed!r}.")
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        if d["start"] is not None:
+            d["start"] = list(d["start"])
+        return d
+
+    def to_toml(self) -> str:
+        """The config as TOML (``None`` options left out), for ``job.toml``."""
+        import tomli_w
+
+        d = {k: v for k, v in self.to_dict().items() if v is not None}
+        head = f"# polishpath {__version__} job: re-run exactly with `polishpath plan --config job.toml`\n"
+        return head + tomli_w.dumps({"job": d})
+
+    @classmethod
+    def from_toml(cls, path: str | Path, **overrides: Any) -> JobConfig:
+        """Read a job TOML (``[job]`` table, or top-level keys); ``overrides`` win."""
+        from .surfaces.spec import read_toml
+
+        p = Path(path)
+        data = read_toml(p)
+        table = data.get("job", data)
+        if not isinstance(table, dict):
+            raise SpecError(f"{p.name}: [job] must be a table of options.")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(table) - names
+        if unknown:
+            raise SpecError(f"{p.name}: unknown job option(s) {', '.join(sorted(unknown))}.",
+                            f"Options: {', '.join(sorted(names))}.")
+        kw = dict(table)
+        # a relative mesh or spec path is relative to the config file
+        surf = kw.get("surface")
+        if isinstance(surf, str):
+            cand = p.parent / surf
+            if not Path(surf).is_absolute() and cand.exists():
+                kw["surface"] = str(cand)
+        if kw.get("start") is not None:
+            kw["start"] = tuple(kw["start"])
+        kw.update({k: v for k, v in overrides.items() if v is not None})
+        return cls(**kw)
+
+
+@dataclass
+class Job:
+    """Results of every stage of one run, and what produced them."""
+
+    config: JobConfig
+    surface: Surface
+    flattening: Flattening
+    region: Region
+    planar: PlanarPath
+    surface_path: SurfacePath
+    tool_path: ToolPath
+    planar_spacing: float
+    timings: dict[str, float] = field(default_factory=dict)
+    plan_metrics: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def seed(self) -> int | None:
+        return self.planar.provenance.seed
+
+    def summary(self) -> dict[str, Any]:
+        """Every figure of the run, JSON-ready (what ``summary.json`` holds)."""
+        from .surfaces import describe_surface
+
+        cfg = self.config.to_dict()
+        cfg["seed"] = self.seed
+        s = {
+            "polishpath_version": __version__,
+            "config": cfg,
+            "seed": self.seed,
+            "surface": describe_surface(self.surface),
+            "flattening": {
+                "method": self.flattening.provenance.method,
+                "metrics": self.flattening.metrics,
+                "timings_s": self.flattening.timings,
+                "provenance": self.flattening.provenance.to_dict(),
+            },
+            "plan": {
+                "pattern": self.planar.pattern,
+                "planar_spacing_mm": self.planar_spacing,
+                "surface_spacing_mm": self.config.spacing,
+                "step_reduction_factor": self.planar_spacing / self.config.spacing,
+                "dwell_points": self.planar.n_points,
+                "pieces": int(len(self.planar.pieces) - 1),
+                "unreached": int(len(self.planar.unreached)),
+                "metrics": self.plan_metrics,
+                "stats": self.planar.stats,
+                "provenance": self.planar.provenance.to_dict(),
+            },
+            "map": {"stats": self.surface_path.stats, "provenance": self.surface_path.provenance.to_dict()},
+            "smooth": {
+                "stats": self.tool_path.stats,
+                "samples": int(len(self.tool_path.samples)),
+                "period_ms": self.tool_path.period_ms,
+                "provenance": self.tool_path.provenance.to_dict(),
+            },
+            "dwell_time_note": (
+                "Each dwell point's time is scaled by the surface area it stands for "
+                "(dwell_weight, mean 1, from the map's local area ratio), so a uniform "
+                "removal on the part stays uniform where the planar grid is denser or sparser."
+            ),
+            "timings_s": self.timings,
+        }
+        return _jsonable(s)
+
+    def save(self, out_dir: str | Path, *, report: bool | None = None) -> dict[str, Path]:
+        """Write every output into ``out_dir`` atomically (a temp folder renamed into place per file).
+
+        Returns
+        -------
+        dict of str -> Path
+            What was written: ``path_csv``, ``toolpath_xyz``, ``gcode``,
+            ``summary``, ``job``, ``flat_obj``, and ``report`` when made.
+        """
+        from . import export
+        from .flatten import save_obj
+
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        written: dict[str, Path] = {}
+        header = self.gcode_header()
+        with progress.stage("writing machine files", self.timings, "write"):
+            export.write_path_csv(self.tool_path, out / "path.csv")
+            written["path_csv"] = out / "path.csv"
+            export.write_xyz(self.tool_path, out / "toolpath.xyz")
+            written["toolpath_xyz"] = out / "toolpath.xyz"
+            export.write_gcode(self.tool_path, out / "toolpath.nc", mode=self.config.gcode,
+                               tool_radius=self.config.tool_radius, header=header)
+            written["gcode"] = out / "toolpath.nc"
+            _atomic_write_text(out / "flat.obj", lambda fh: save_obj(self.flattening, fh))
+            written["flat_obj"] = out / "flat.obj"
+            _atomic_write_text(out / "job.toml", lambda fh: fh.write(self._job_config_with_seed().to_toml()))
+            written["job"] = out / "job.toml"
+            _save_arrays(self, out / "run.npz")
+            written["arrays"] = out / "run.npz"
+            export.write_summary_json(self.summary(), out / "summary.json")
+            written["summary"] = out / "summary.json"
+        if report if report is not None else self.config.report:
+            try:
+                from .report import write_report
+            except ImportError:  # report stage not available in this build
+                write_report = None
+            if write_report is not None:
+                with progress.stage("writing report", self.timings, "report"):
+                    written.update(write_report(out))
+        return written
+
+    def _job_config_with_seed(self) -> JobConfig:
+        return dataclasses.replace(self.config, seed=self.seed)
+
+    def gcode_header(self) -> dict[str, Any]:
+        return {
+            "polishpath": __version__,
+            "surface": self.surface.source or self.surface.name,
+            "method": self.flattening.provenance.method,
+            "pattern": self.planar.pattern,
+            "spacing_mm": self.config.spacing,
+            "planar_spacing_mm": round(self.planar_spacing, 6),
+            "seed": self.seed,
+            "dwell_points": self.planar.n_points,
+            **{k: v for k, v in self.config.to_dict().items() if k not in ("surface", "seed") and v is not None},
+        }
+
+
+def _save_arrays(job: Job, path: Path) -> None:
+    """Every stage's arrays in one ``.npz`` so ``polishpath report DIR`` can rebuild figures."""
+    tp, sp, pp, fl = job.tool_path, job.surface_path, job.planar, job.flattening
+    arrays = {
+        "vertices": job.surface.vertices, "faces": job.surface.faces, "uv": fl.uv, "angles": fl.angles,
+        "plan_uv": pp.uv, "plan_ij": pp.ij, "plan_pieces": pp.pieces, "plan_unreached": pp.unreached,
+        "xyz": sp.xyz, "normals": sp.normals, "dwell_weight": sp.dwell_weight,
+        "samples": tp.samples, "feed_mm_min": tp.feed_mm_min, "dwell_params": tp.dwell_params,
+        "knots": tp.curve.knots, "control_points": tp.curve.control_points,
+    }
+    for k, v in fl.residuals.items():
+        arrays[f"residual_{k}"] = np.asarray(v)
+    for i, loop in enumerate(job.region.loops):
+        arrays[f"region_loop_{i}"] = loop
+
+    def w(fh):
+        np.savez_compressed(fh, **arrays)
+
+    _atomic_write_bytes(path, w)
+
+
+def _atomic_write_text(path: Path, writer) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            writer(fh)
+        os.replace(tmp, path)
+    except BaseException:
+        with _suppress():
+            os.unlink(tmp)
+        raise
+
+
+def _atomic_write_bytes(path: Path, writer) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            writer(fh)
+        os.replace(tmp, path)
+    except BaseException:
+        with _suppress():
+            os.unlink(tmp)
+        raise
+
+
+class _suppress:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return exc[0] is not None and issubclass(exc[0], OSError)
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.floating,)):
+        x = float(x)
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    if isinstance(x, Path):
+        return str(x)
+    if callable(x):
+        return None
+    return x
+
+
+def flatten_surface(surface: Surface, method: str) -> Flattening:
+    """Flatten with a method name; ``projection`` is the paper's projection baseline."""
+    if method == "projection":
+        from .mapping import projection_flattening
+
+        return projection_flattening(surface)
+    from .flatten import flatten
+
+    return flatten(surface, method)
+
+
+def run(config: JobConfig | None = None, **options: Any) -> Job:
+    """Run the whole job.
+
+    Parameters
+    ----------
+    config : JobConfig, optional
+        All options; keyword ``options`` override its fields (or build one).
+
+    Returns
+    -------
+    Job
+        Every stage's result; ``job.save(dir)`` writes the outputs.
+
+    Examples
+    --------
+    >>> job = run(surface="hemisphere:triangles=5000", spacing=1.0, seed=7)  # doctest: +SKIP
+    >>> job.save("out")  # doctest: +SKIP
+    """
+    from .flatten import boundary_region
+    from .mapping import honour_surface_spacing, map_to_surface
+    from .plan import path_metrics, plan
+    from .smooth import smooth
+    from .surfaces import load_surface
+
+    cfg = dataclasses.replace(config, **options) if config is not None else JobConfig(**options)
+    cfg.validate()
+    if cfg.seed is None:
+        cfg = dataclasses.replace(cfg, seed=random.SystemRandom().randrange(2**31))
+    timings: dict[str, float] = {}
+
+    with progress.stage("reading surface", timings, "surface"):
+        surface = load_surface(cfg.surface, units=cfg.units, scale=cfg.scale, component=cfg.component)
+    with progress.stage(f"flattening ({cfg.method})", timings, "flatten"):
+        flat = flatten_surface(surface, cfg.method)
+        region = boundary_region(flat)
+
+    def planner(planar_spacing: float) -> PlanarPath:
+        return plan(region, planar_spacing, cfg.pattern, seed=cfg.seed, start=cfg.start, margin=cfg.margin)
+
+    with progress.stage(f"planning {cfg.pattern} path", timings, "plan"):
+        if cfg.spacing_on == "surface":
+            planar, spath, planar_spacing = honour_surface_spacing(flat, cfg.spacing, planner)
+        else:
+            planar_spacing = cfg.spacing
+            planar = planner(planar_spacing)
+            spath = map_to_surface(flat, planar)
+    with progress.stage("path metrics", timings, "metrics"):
+        pm = path_metrics(planar, region)
+    smooth_kw = {k: getattr(cfg, k) for k in ("feed_mm_min", "period_ms", "chord_tol_mm") if getattr(cfg, k) is not None}
+    if cfg.dwell_times:
+        from .export import read_dwell_times
+
+        smooth_kw["dwell_times"] = read_dwell_times(cfg.dwell_times, expected=planar.n_points)
+    with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth"):
+        tool = smooth(spath, surface=surface, **smooth_kw)
+    return Job(cfg, surface, flat, region, planar, spath, tool, planar_spacing, timings, pm)
+
+
+def rebuild_report(out_dir: str | Path) -> dict[str, Path]:
+    """Rebuild ``report.html`` and the PNGs of a finished run from its files."""
+    from .report import write_report
+
+    return write_report(Path(out_dir))
+
+
+def remove_partial(out_dir: Path) -> None:  # pragma: no cover - used on Ctrl-C
+    for p in Path(out_dir).glob(".*.tmp"):
+        with _suppress():
+            p.unlink()
+    if Path(out_dir).exists() and not any(Path(out_dir).iterdir()):
+        shutil.rmtree(out_dir, ignore_errors=True)
