@@ -271,6 +271,29 @@ def plan_cmd(
         _print_plan_summary(job, summary, written, out_dir)
 
 
+@app.command("report")
+def report_cmd(
+    run_dir: Path = typer.Argument(..., metavar="DIR", help="Folder of a finished `polishpath plan` run."),
+    json_out: bool = typer.Option(False, "--json", help="Print the written files as JSON."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+):
+    """Rebuild report.html and the PNG figures of a finished run from its files.
+
+    Example: polishpath report out
+    """
+    from . import progress
+    from .pipeline import rebuild_report
+
+    _quiet(quiet, json_out)
+    with _guard():
+        with progress.stage("writing report"):
+            written = rebuild_report(run_dir)
+        if json_out:
+            _print_json({k: str(v) for k, v in written.items()})
+            return
+        typer.echo(f"report: {written['report']}")
+
+
 def _parse_pair(text: str, opt: str) -> tuple[float, float]:
     from .errors import ParameterError
 
