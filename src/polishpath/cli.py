@@ -11,6 +11,7 @@ that could not complete (the message says which), 130 interrupted (Ctrl-C).
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any, Optional
@@ -79,7 +80,13 @@ class _guard:
             _fail("interrupted; no half-written files were left.", 130)
         if issubclass(et, MemoryError):
             _fail("ran out of memory. Try fewer triangles, a larger spacing, or a smaller part.", 2)
-        return False
+        if os.environ.get("POLISHPATH_DEBUG"):
+            return False  # show the traceback
+        _fail(
+            f"internal error: {et.__name__}: {ev}. This is a bug in polishpath; please report it with the "
+            "command you ran (set POLISHPATH_DEBUG=1 to see the traceback).",
+            1,
+        )
 
 
 def _print_json(obj: Any) -> None:

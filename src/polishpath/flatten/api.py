@@ -1,0 +1,252 @@
+"""``flatten(surface, method)``: one entry point for MABF, classic ABF and LSCM."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .. import meshops
+from ..errors import FlatteningError, ParameterError
+from ..types import Flattening, Provenance, Region, Surface
+from .metrics import flattening_metrics
+from .topology import check_disc_mesh, fill_holes, outer_loop_index
+
+METHODS = ("mabf", "abf", "lscm")
+LAYOUTS = ("midpoint", "least_squares", "midpoint_area")
+
+
+def _layout(name: str, v, f, angles, solver: str) -> np.ndarray:
+    from .layout import least_squares_layout, midpoint_layout
+
+    if name == "midpoint":
+        return midpoint_layout(v, f, angles, sizes="propagate")
+    if name == "midpoint_area":
+        return midpoint_layout(v, f, angles, sizes="area")
+    return least_squares_layout(v, f, angles, solver=solver)
+
+
+def normalize_uv(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Scale planar coordinates so the planar area equals the 3D area, orient faces
+    counter-clockwise (mirror if needed) and put the area centroid at the origin.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float
+        mm.
+    faces : (F, 3) int
+    uv : (V, 2) float
+
+    Returns
+    -------
+    (V, 2) float64
+        mm.
+    """
+    uv = np.array(uv, dtype=np.float64)
+    sa = meshops.face_areas(uv, faces, signed=True)
+    if sa.sum() < 0:
+        uv[:, 0] = -uv[:, 0]
+        sa = -sa
+    a3 = meshops.surface_area(vertices, faces)
+    a2 = float(np.abs(sa).sum())
+    if not np.isfinite(a2) or a2 <= 0:
+        raise FlatteningError("The flattening collapsed to zero area.", "Try another method (method='lscm').")
+    uv *= np.sqrt(a3 / a2)
+    sa = meshops.face_areas(uv, faces, signed=True)
+    cent = (uv[faces].mean(axis=1) * sa[:, None]).sum(axis=0) / sa.sum()
+    return uv - cent
+
+
+def flatten(
+    surface: Surface,
+    method: str = "mabf",
+    *,
+    layout: str | None = None,
+    check: bool = True,
+    **options,
+) -> Flattening:
+    """Flatten a disc-like surface (holes allowed) into the plane.
+
+    Parameters
+    ----------
+    surface : Surface
+        Manifold, one component, at least one boundary loop, no handles.
+    method : {"mabf", "abf", "lscm"}
+        ``"mabf"``: the paper's angle problem solved in matrix form (default);
+        ``"abf"``: classic ABF by Lagrange-Newton (slow baseline);
+        ``"lscm"``: libigl's least-squares conformal map (needs ``libigl``).
+    layout : {"midpoint", "least_squares", "midpoint_area"}, optional
+        Angle-to-plane step for "mabf" / "abf". Default ``"midpoint"`` (the
+        paper's breadth-first midpoint layout, sizes propagated from the parent
+        edge; as accurate as the least-squares layout on converged angles and
+        many times faster). ``"midpoint_area"`` keeps each triangle's 3D area
+        (the paper's literal wording; measurably worse, kept for comparison).
+    check : bool
+        Raise :class:`FlatteningError` when the result has flipped triangles or a
+        self-overlapping boundary; with False the result is returned and the
+        counts are in ``metrics``.
+    **options
+        ``weights`` ("auto", "uniform", "inverse_square"; MABF, default "auto":
+        uniform as in the paper, switching to ABF's 1/beta^2 weights if uniform
+        weights drive a sliver towards zero), ``min_angle`` (radians, default 1
+        degree), ``tol`` (default 1e-10), ``max_iter``, ``solver`` ("auto",
+        "cholmod", "superlu"), ``hole_weight`` (energy weight of the virtual
+        faces filling holes, default 0.01).
+
+    Returns
+    -------
+    Flattening
+        ``uv`` in mm, planar area equal to the 3D area, area centroid at the origin,
+        faces counter-clockwise.
+
+    Raises
+    ------
+    ParameterError
+        Unknown method, layout or option.
+    MeshError subclasses
+        The mesh is closed, non-manifold, in several pieces or has handles.
+    FlatteningError
+        The solve failed, or (with ``check``) the result flips or overlaps.
+    """
+    if method not in METHODS:
+        raise ParameterError(f"Unknown flattening method {method!r}.", f"Use one of: {', '.join(METHODS)}.")
+    if layout is not None and layout not in LAYOUTS:
+        raise ParameterError(f"Unknown layout {layout!r}.", f"Use one of: {', '.join(LAYOUTS)}.")
+    known = {"weights", "min_angle", "tol", "max_iter", "solver", "hole_weight"}
+    bad = set(options) - known
+    if bad:
+        raise ParameterError(f"Unknown flatten option(s): {', '.join(sorted(bad))}.", f"Known options: {', '.join(sorted(known))}.")
+    t_start = time.perf_counter()
+    v = surface.vertices
+    f = surface.faces
+    loops = check_disc_mesh(v, f)
+    F, V = len(f), len(v)
+    solver = options.get("solver", "auto")
+    min_angle = float(options.get("min_angle", np.radians(1.0)))
+    tol = float(options.get("tol", 1e-10))
+    params: dict = {"min_angle": min_angle, "tol": tol}
+    timings: dict[str, float] = {}
+    residuals: dict[str, np.ndarray] = {}
+    extra: dict[str, float] = {}
+
+    if method == "lscm":
+        from .lscm import lscm_uv
+
+        if layout is not None:
+            raise ParameterError("method='lscm' computes positions directly and takes no layout.", "Drop the layout option.")
+        t0 = time.perf_counter()
+        uv = lscm_uv(v, f, loops[outer_loop_index(v, loops)])
+        timings["solve"] = time.perf_counter() - t0
+        params = {}
+    else:
+        layout = layout or "midpoint"
+        hole_weight = float(options.get("hole_weight", 0.01))
+        vf, ff, n_virtual = fill_holes(v, f, loops)
+        fw = None
+        if n_virtual:
+            fw = np.ones(len(ff))
+            fw[F:] = hole_weight
+        t0 = time.perf_counter()
+        if method == "mabf":
+            from .mabf import mabf_angles
+
+            weights = options.get("weights", "auto")
+            if weights not in ("auto", "uniform", "inverse_square"):
+                raise ParameterError(f"Unknown MABF weights {weights!r}.", "Use 'auto', 'uniform' or 'inverse_square'.")
+            kw = dict(min_angle=min_angle, tol=tol, max_iter=int(options.get("max_iter", 50)), face_weight=fw, solver=solver)
+            used = "uniform" if weights == "auto" else weights
+            angles, res, st = mabf_angles(vf, ff, weights=used, stop_on_damping=(weights == "auto"), **kw)
+            if st.get("stopped_on_damping"):
+                used = "inverse_square"
+                angles, res, st = mabf_angles(vf, ff, weights=used, **kw)
+            params.update(weights=used, solver=solver)
+            extra["factorizations"] = float(st["factorizations"])
+        else:
+            from .abf import abf_angles
+
+            angles, res, st = abf_angles(vf, ff, min_angle=min_angle, tol=tol, max_iter=int(options.get("max_iter", 50)), face_weight=fw)
+            params.update(weights="inverse_square")
+        timings["angles"] = time.perf_counter() - t0
+        extra["iterations"] = float(st["iterations"])
+        worst = max(st["max_triangle_residual"], st["max_vertex_residual"], st["max_wheel_residual"])
+        if not np.isfinite(worst) or worst > 1e-3:
+            raise FlatteningError(
+                f"The {method.upper()} angles did not converge (largest constraint residual {worst:.2g} after {st['iterations']} steps).",
+                "Try weights='inverse_square', a larger min_angle, more max_iter, or method='lscm'.",
+            )
+        t0 = time.perf_counter()
+        uvf = _layout(layout, vf, ff, angles, solver)
+        timings["layout"] = time.perf_counter() - t0
+        uv = uvf[:V]
+        angles = angles[:F]
+        n_int_real = int(np.count_nonzero(np.nonzero(_interior_mask(len(vf), ff))[0] < V))
+        residuals = {
+            "triangle": res["triangle"][:F],
+            "vertex": res["vertex"][:n_int_real],
+            "wheel": res["wheel"][:n_int_real],
+        }
+        params.update(layout=layout, holes_filled=int(len(loops) - 1))
+        if n_virtual:
+            params["hole_weight"] = hole_weight
+    uv = normalize_uv(v, f, uv)
+    if method == "lscm":
+        angles = meshops.corner_angles(uv, f)
+    timings["total"] = time.perf_counter() - t_start
+    metrics = flattening_metrics(surface, uv)
+    for k, r in residuals.items():
+        metrics[f"max_{k}_residual"] = float(np.abs(r).max()) if len(r) else 0.0
+    metrics.update(extra)
+    metrics["seconds"] = timings["total"]
+    flat = Flattening(
+        surface=surface,
+        uv=uv,
+        angles=angles,
+        residuals=residuals,
+        metrics=metrics,
+        timings=timings,
+        provenance=Provenance("flatten", method, params=params, seed=None),
+    )
+    if check:
+        nflip = int(metrics["flipped_faces"])
+        nover = int(metrics["boundary_self_overlap"])
+        if nflip or nover:
+            raise FlatteningError(
+                f"The {method.upper()} flattening of {surface.name!r} has {nflip} flipped triangle(s) and "
+                f"{nover} crossing boundary-edge pair(s).",
+                "Try another method or layout (method='abf', layout='least_squares'), cut the surface into "
+                "less curved pieces, or pass check=False to inspect the result.",
+            )
+    return flat
+
+
+def _interior_mask(n_vertices: int, faces: np.ndarray) -> np.ndarray:
+    m = ~meshops.boundary_vertex_mask(n_vertices, faces)
+    used = np.zeros(n_vertices, dtype=bool)
+    used[np.asarray(faces).ravel()] = True
+    return m & used
+
+
+def boundary_region(flat: Flattening) -> Region:
+    """The planar region covered by a flattening: outer loop and holes.
+
+    Parameters
+    ----------
+    flat : Flattening
+
+    Returns
+    -------
+    Region
+        ``outer``: the boundary loop of largest enclosed |area| (counter-clockwise),
+        ``holes``: the other loops (clockwise), in mm.
+    """
+    loops = meshops.boundary_loops(flat.surface.faces)
+    if not loops:
+        raise FlatteningError("The flattened mesh has no boundary loop.", "Flatten an open surface.")
+    polys = [flat.uv[lp] for lp in loops]
+
+    def area(p):
+        x, y = p[:, 0], p[:, 1]
+        return abs(0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
+
+    i = int(np.argmax([area(p) for p in polys]))
+    return Region(outer=polys[i], holes=tuple(p for k, p in enumerate(polys) if k != i))

@@ -1,0 +1,279 @@
+"""Mesh topology the flattening methods share: checks, corner tables, hole filling.
+
+A *corner* is one (face, k) slot, flattened to ``c = 3 * f + k``; all angle
+vectors in this subpackage are indexed by corner (the paper's Eq. 2 order).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .. import meshops
+from ..errors import (
+    ClosedMeshError,
+    DegenerateMeshError,
+    MultipleComponentsError,
+    NonFiniteError,
+    NonManifoldError,
+)
+
+
+def check_disc_mesh(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
+    """Refuse meshes no flattening can handle; return the boundary loops.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float
+        Vertex positions, mm.
+    faces : (F, 3) int
+        Triangles.
+
+    Returns
+    -------
+    loops : list of (n,) int64
+        Boundary loops, longest first (the outer boundary of a disc first).
+
+    Raises
+    ------
+    NonFiniteError, DegenerateMeshError, NonManifoldError, ClosedMeshError,
+    MultipleComponentsError
+        With a message saying what is wrong and what to do.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) == 0:
+        raise DegenerateMeshError("The mesh has no triangles.", "Give a surface with at least one face.")
+    if not np.all(np.isfinite(v)):
+        raise NonFiniteError(
+            f"{int((~np.isfinite(v)).any(axis=1).sum())} vertices have NaN or infinite coordinates.",
+            "Repair or remove them before flattening.",
+        )
+    if f.min() < 0 or f.max() >= len(v):
+        raise DegenerateMeshError("Face indices point outside the vertex array.", "Check the mesh file.")
+    if np.any((f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0])):
+        raise DegenerateMeshError(
+            "Some faces repeat a vertex (zero-area triangles).",
+            "Load the mesh with polishpath.surfaces.load_surface, which removes them.",
+        )
+    # integer edge keys instead of np.unique(axis=0): several times faster on big meshes
+    nv = np.int64(len(v))
+    a = f.ravel()
+    b = np.roll(f, -1, axis=1).ravel()
+    ukey = np.minimum(a, b) * nv + np.maximum(a, b)
+    _, counts = np.unique(ukey, return_counts=True)
+    if np.any(counts > 2):
+        raise NonManifoldError(
+            f"{int((counts > 2).sum())} edges are shared by more than two faces; a flattening needs a manifold patch.",
+            "Repair the mesh (remove the extra faces) or cut it into manifold pieces.",
+        )
+    # every directed half-edge must be used once (consistent orientation)
+    _, dcounts = np.unique(a * nv + b, return_counts=True)
+    if np.any(dcounts > 1):
+        raise NonManifoldError(
+            f"{int((dcounts > 1).sum())} edges are traversed twice in the same direction: the faces are not consistently oriented.",
+            "Fix the winding (trimesh.repair.fix_winding) or load the mesh with polishpath.surfaces.load_surface.",
+        )
+    from scipy.sparse.csgraph import connected_components
+
+    tw = half_edge_twin_slots(f)[0]
+    src = np.repeat(np.arange(len(f)), 3)
+    m = tw.ravel() >= 0
+    g = sp.csr_matrix((np.ones(int(m.sum())), (src[m], tw.ravel()[m])), shape=(len(f), len(f)))
+    n_comp = int(connected_components(g, directed=False)[0])
+    if n_comp > 1:
+        raise MultipleComponentsError(
+            f"The mesh has {n_comp} disconnected pieces; a flattening maps one piece.",
+            "Flatten each piece separately (trimesh split) or keep the largest.",
+        )
+    loops = meshops.boundary_loops(f)
+    if not loops:
+        raise ClosedMeshError(
+            "The mesh is closed (it has no boundary), so it cannot be flattened without cuts.",
+            "Cut it open along a seam, or give only the patch to be polished.",
+        )
+    nb = int(np.count_nonzero(tw < 0))
+    if sum(len(lp) for lp in loops) != nb:
+        raise NonManifoldError(
+            "A boundary vertex is shared by two boundary loops (a pinched, non-manifold vertex).",
+            "Repair the mesh so every vertex fan is one disc.",
+        )
+    # Euler characteristic of a disc with h holes: V - E + F = 2 - (h + 1) ... = 1 - h
+    used = np.unique(f)
+    n_edges = len(counts)
+    chi = len(used) - n_edges + len(f)
+    if chi != 2 - len(loops):
+        raise NonManifoldError(
+            f"The mesh has Euler characteristic {chi} with {len(loops)} boundary loop(s): it has handles (genus > 0), "
+            "so it is not a disc with holes.",
+            "Cut the handles open before flattening.",
+        )
+    return loops
+
+
+@dataclass(frozen=True)
+class CornerTables:
+    """Index tables over corners ``c = 3 f + k`` for a mesh.
+
+    Attributes
+    ----------
+    faces : (F, 3) int64
+    corner_vertex : (3F,) int64
+        Vertex of each corner.
+    interior : (V,) bool
+        True on interior (non-boundary) vertices.
+    interior_index : (V,) int64
+        Row of each interior vertex in the vertex / wheel constraints, -1 elsewhere.
+    n_interior : int
+    """
+
+    faces: np.ndarray
+    corner_vertex: np.ndarray
+    interior: np.ndarray
+    interior_index: np.ndarray
+    n_interior: int
+
+    @property
+    def n_faces(self) -> int:
+        return int(len(self.faces))
+
+
+def corner_tables(n_vertices: int, faces: np.ndarray) -> CornerTables:
+    """Build the :class:`CornerTables` of a mesh (vectorised, no loops over faces)."""
+    f = np.asarray(faces, dtype=np.int64)
+    cv = f.ravel()
+    interior = ~meshops.boundary_vertex_mask(n_vertices, f)
+    used = np.zeros(n_vertices, dtype=bool)
+    used[cv] = True
+    interior &= used
+    idx = np.full(n_vertices, -1, dtype=np.int64)
+    idx[interior] = np.arange(int(interior.sum()))
+    return CornerTables(f, cv, interior, idx, int(interior.sum()))
+
+
+def vertex_sum_matrix(t: CornerTables) -> sp.csr_matrix:
+    """B of the paper's Eq. 1: (Vi, 3F), 1 where the corner sits at the interior vertex of that row."""
+    rows = t.interior_index[t.corner_vertex]
+    m = rows >= 0
+    cols = np.nonzero(m)[0]
+    return sp.csr_matrix((np.ones(len(cols)), (rows[m], cols)), shape=(t.n_interior, 3 * t.n_faces))
+
+
+def wheel_pattern(t: CornerTables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sparsity of C in the paper's Eq. 1 (the sine-law wheel condition).
+
+    For corner ``(f, k)`` at interior vertex v, the opposite-side angles are the
+    next corner ``(f, k+1)`` (sign +1) and the previous corner ``(f, k+2)`` (sign -1):
+    ``sum(+ln sin) - sum(ln sin) = 0`` around v.
+
+    Returns
+    -------
+    rows, cols : (n,) int64
+        Interior-vertex row and corner column of each entry.
+    signs : (n,) float64
+        +1 or -1.
+    """
+    F = t.n_faces
+    rows_all = t.interior_index[t.corner_vertex]
+    m = rows_all >= 0
+    c = np.nonzero(m)[0]
+    f, k = c // 3, c % 3
+    nxt = 3 * f + (k + 1) % 3
+    prv = 3 * f + (k + 2) % 3
+    rows = np.concatenate([rows_all[m], rows_all[m]])
+    cols = np.concatenate([nxt, prv])
+    signs = np.concatenate([np.ones(len(c)), -np.ones(len(c))])
+    del F
+    return rows, cols, signs
+
+
+def fill_holes(vertices: np.ndarray, faces: np.ndarray, loops: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, int]:
+    """Close every hole (all boundary loops but the outer) with a fan around a virtual centre vertex.
+
+    Why: the angle constraints of ABF / MABF only hold at interior vertices, so
+    around a hole nothing forces the development to close up; the solved angles
+    would carry the curvature enclosed by the hole and the layout would tear.
+    Filling the hole makes its rim interior (closure is then implied by the
+    vertex and wheel conditions); the virtual faces get a small weight and are
+    dropped after the solve.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float
+    faces : (F, 3) int
+    loops : list of (n,) int
+        Boundary loops; the one with the largest 3D enclosed extent is kept as the outer boundary.
+
+    Returns
+    -------
+    vertices : (V + H, 3) float64
+    faces : (F + sum(n_h), 3) int64
+        Original faces first, then the fan faces.
+    n_virtual_faces : int
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    if len(loops) <= 1:
+        return v, f, 0
+    outer = outer_loop_index(v, loops)
+    new_v = [v]
+    new_f = [f]
+    nv = len(v)
+    nvf = 0
+    for i, lp in enumerate(loops):
+        if i == outer:
+            continue
+        centre = v[lp].mean(axis=0)
+        new_v.append(centre[None])
+        # boundary loops run along the face winding; the fan must run the other way
+        a = lp
+        b = np.roll(lp, -1)
+        fan = np.stack([b, a, np.full(len(lp), nv)], axis=1)
+        new_f.append(fan)
+        nvf += len(lp)
+        nv += 1
+    return np.vstack(new_v), np.vstack(new_f), nvf
+
+
+def outer_loop_index(vertices: np.ndarray, loops: list[np.ndarray]) -> int:
+    """Index of the loop taken as the outer boundary in 3D: the longest one (perimeter, mm)."""
+    v = np.asarray(vertices)
+    per = [float(np.linalg.norm(v[lp] - v[np.roll(lp, -1)], axis=1).sum()) for lp in loops]
+    return int(np.argmax(per))
+
+
+def half_edge_twins(faces: np.ndarray) -> np.ndarray:
+    """Face across each edge: ``(F, 3)`` int64, entry ``[f, k]`` is the face sharing edge
+    ``faces[f, k] -> faces[f, (k+1) % 3]``, or -1 on the boundary. Also returns nothing else;
+    the twin's local edge index is found by :func:`half_edge_twin_slots`."""
+    return half_edge_twin_slots(faces)[0]
+
+
+def half_edge_twin_slots(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Face and local edge index across each half-edge.
+
+    Returns
+    -------
+    twin_face : (F, 3) int64
+        Face across edge k of face f, -1 on the boundary.
+    twin_slot : (F, 3) int64
+        Local edge index of the same edge in ``twin_face``, -1 on the boundary.
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    F = len(f)
+    a = f.ravel()
+    b = np.roll(f, -1, axis=1).ravel()
+    n = int(f.max()) + 1
+    key = a * n + b
+    rkey = b * n + a
+    order = np.argsort(key, kind="stable")
+    sk = key[order]
+    pos = np.searchsorted(sk, rkey)
+    pos = np.minimum(pos, len(sk) - 1)
+    found = sk[pos] == rkey
+    he = np.where(found, order[pos], -1)
+    twin_face = np.where(he >= 0, he // 3, -1).reshape(F, 3)
+    twin_slot = np.where(he >= 0, he % 3, -1).reshape(F, 3)
+    return twin_face, twin_slot

@@ -1,0 +1,359 @@
+"""Tests of polishpath.flatten (MABF, classic ABF, LSCM peer, metrics, layouts, I/O).
+
+Meshes are generated here (Delaunay on a jittered disc of points, lifted onto a
+plane, cylinder, cone or sphere); the shared real meshes come through the
+``shared_mesh`` fixture.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from scipy.spatial import Delaunay
+
+from polishpath import meshops
+from polishpath.errors import (
+    ClosedMeshError,
+    FlatteningError,
+    MultipleComponentsError,
+    NonManifoldError,
+    ParameterError,
+)
+from polishpath.flatten import (
+    boundary_region,
+    constraint_residuals,
+    flatten,
+    flattening_metrics,
+    flipped_faces,
+    least_squares_layout,
+    load_obj_uv,
+    mabf_angles,
+    midpoint_layout,
+    save_obj,
+)
+from polishpath.flatten.topology import corner_tables, vertex_sum_matrix
+from polishpath.types import Surface
+
+# --- mesh generators -----------------------------------------------------------------
+
+
+def disc_points(n_rings: int = 8, radius: float = 10.0, hole: float = 0.0, seed: int = 0) -> np.ndarray:
+    """Points on concentric rings of a disc (annulus if ``hole`` > 0), slightly jittered, (n, 2) mm."""
+    rng = np.random.default_rng(seed)
+    pts = [] if hole > 0 else [np.zeros((1, 2))]
+    r0 = hole if hole > 0 else 0.0
+    for i in range(1, n_rings + 1) if hole == 0 else range(0, n_rings + 1):
+        r = r0 + (radius - r0) * i / n_rings
+        k = max(6, int(round(2 * np.pi * r / ((radius - r0) / n_rings))))
+        t = np.arange(k) * 2 * np.pi / k + 0.3 * i
+        p = np.stack([r * np.cos(t), r * np.sin(t)], 1)
+        if 0 < i < n_rings:
+            p += rng.normal(scale=0.08 * (radius - r0) / n_rings, size=p.shape)
+        pts.append(p)
+    return np.vstack(pts)
+
+
+def disc_mesh(n_rings=8, radius=10.0, hole=0.0, seed=0):
+    """Planar triangulated disc / annulus: (V, 2) points and CCW faces."""
+    p = disc_points(n_rings, radius, hole, seed)
+    tri = Delaunay(p).simplices.astype(np.int64)
+    c = p[tri].mean(axis=1)
+    r = np.linalg.norm(c, axis=1)
+    keep = r > hole * 1.0001 if hole > 0 else np.ones(len(tri), bool)
+    tri = tri[keep]
+    sa = meshops.face_areas(p, tri, signed=True)
+    tri[sa < 0] = tri[sa < 0][:, [0, 2, 1]]
+    return p, tri
+
+
+def lift(p2: np.ndarray, shape: str) -> np.ndarray:
+    x, y = p2[:, 0], p2[:, 1]
+    if shape == "plane":
+        return np.stack([x, y, np.zeros_like(x)], 1)
+    if shape == "cylinder":  # isometric wrap of x around a cylinder of radius 8 mm
+        R = 8.0
+        return np.stack([R * np.sin(x / R), y, R * (1 - np.cos(x / R))], 1)
+    if shape == "cone":  # isometric roll of a plane sector onto a cone (sin(half-angle) = 0.5)
+        q = p2 + np.array([30.0, 0.0])
+        r = np.linalg.norm(q, axis=1)
+        th = np.arctan2(q[:, 1], q[:, 0])
+        s = 0.5
+        phi = th / s
+        return np.stack([r * s * np.cos(phi), r * s * np.sin(phi), r * np.sqrt(1 - s * s)], 1)
+    if shape == "cap":  # spherical cap, R = 15 mm, disc projected on the sphere
+        R = 15.0
+        rr = np.linalg.norm(p2, axis=1)
+        ang = rr / R  # arc length = planar radius
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = np.where(rr[:, None] > 0, p2 / np.where(rr > 0, rr, 1)[:, None], 0.0)
+        return np.column_stack([R * np.sin(ang)[:, None] * u, R * np.cos(ang)])
+    if shape == "saddle":
+        return np.stack([x, y, 0.02 * (x * x - y * y)], 1)
+    raise ValueError(shape)
+
+
+def ruled_grid(shape: str, n=12, seed=0) -> Surface:
+    """A polyhedral cylinder or cone patch: every triangle spans two rulings, so the
+    mesh is exactly developable (vertex angle sums 2 pi, flat between rulings)."""
+    rng = np.random.default_rng(seed)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = np.linspace(-8, 8, n)[i]  # ruling coordinate
+    b = np.linspace(-8, 8, n)[j] + rng.normal(scale=0.15, size=i.shape) * (0 < j) * (j < n - 1)
+    p = np.stack([a.ravel(), b.ravel()], 1)
+    idx = np.arange(n * n).reshape(n, n)
+    q0, q1, q2, q3 = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    f = np.concatenate([np.stack([q0, q1, q2], -1).reshape(-1, 3), np.stack([q0, q2, q3], -1).reshape(-1, 3)])
+    if shape == "cylinder":  # ruling x = a, along y
+        R = 8.0
+        v = np.stack([R * np.sin(p[:, 0] / R), p[:, 1], R * (1 - np.cos(p[:, 0] / R))], 1)
+    else:  # cone: ruling angle th = a / 40 rad, distance from apex r = 30 + b
+        th, r = p[:, 0] / 40.0, 30.0 + p[:, 1]
+        s = 0.5
+        v = np.stack([r * s * np.cos(th / s), r * s * np.sin(th / s), r * np.sqrt(1 - s * s)], 1)
+    return Surface(v, f, name=shape)
+
+
+def surface(shape: str, n_rings=8, hole=0.0, seed=0) -> Surface:
+    p, f = disc_mesh(n_rings, 10.0, hole, seed)
+    return Surface(lift(p, shape), f, name=shape)
+
+
+def edge_lengths(x, f):
+    e = meshops.directed_edges(f)
+    return np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
+
+
+def rigid_residual(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest distance between ``a`` and the best rotation + translation of ``b`` (no reflection)."""
+    a0, b0 = a - a.mean(0), b - b.mean(0)
+    u, _, vt = np.linalg.svd(b0.T @ a0)
+    r = u @ vt
+    if np.linalg.det(r) < 0:
+        return np.inf
+    return float(np.abs(b0 @ r - a0).max())
+
+
+# --- constraints ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("weights", ["uniform", "inverse_square"])
+def test_mabf_constraints_hold(weights):
+    s = surface("cap")
+    ang, res, st = mabf_angles(s.vertices, s.faces, weights=weights, tol=1e-11)
+    assert np.abs(ang.sum(axis=1) - np.pi).max() < 1e-9
+    t = corner_tables(s.n_vertices, s.faces)
+    assert t.n_interior > 20
+    assert np.abs(vertex_sum_matrix(t) @ ang.ravel() - 2 * np.pi).max() < 1e-9
+    again = constraint_residuals(t, ang.ravel())
+    assert np.abs(again["wheel"]).max() < 1e-9
+    assert np.abs(res["wheel"]).max() < 1e-9
+    assert ang.min() > 0
+    # the 3D angles of a sphere cap violate the vertex sums: the solve really moved them
+    beta = meshops.corner_angles(s.vertices, s.faces)
+    assert np.abs(vertex_sum_matrix(t) @ beta.ravel() - 2 * np.pi).max() > 1e-3
+
+
+def test_flatten_reports_residuals_and_metrics():
+    fl = flatten(surface("saddle"), "mabf")
+    assert set(fl.residuals) == {"triangle", "vertex", "wheel"}
+    assert len(fl.residuals["triangle"]) == fl.surface.n_faces
+    for k in ("triangle", "vertex", "wheel"):
+        assert fl.metrics[f"max_{k}_residual"] < 1e-9
+    for k in ("angle_error_mean_deg", "area_distortion_mean", "conformal_ratio_mean", "flipped_faces", "boundary_self_overlap"):
+        assert k in fl.metrics
+    assert fl.metrics["flipped_faces"] == 0
+    assert fl.metrics["conformal_ratio_mean"] >= 1.0
+    assert fl.provenance.stage == "flatten" and fl.provenance.method == "mabf"
+    assert fl.timings["angles"] > 0 and fl.timings["layout"] > 0
+
+
+# --- developable and planar surfaces -------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", ["cylinder", "cone"])
+@pytest.mark.parametrize("method,layout", [("mabf", "midpoint"), ("mabf", "least_squares"), ("abf", "midpoint")])
+def test_developable_surface_flattens_isometrically(shape, method, layout):
+    s = ruled_grid(shape)
+    t = corner_tables(s.n_vertices, s.faces)
+    beta = meshops.corner_angles(s.vertices, s.faces).ravel()
+    assert np.abs(vertex_sum_matrix(t) @ beta - 2 * np.pi).max() < 1e-12  # really developable
+    assert np.ptp(s.vertices[:, 2]) > 1.0  # and really curved
+    fl = flatten(s, method, layout=layout)
+    l3 = edge_lengths(s.vertices, s.faces)
+    l2 = edge_lengths(fl.uv, s.faces)
+    assert np.abs(l2 / l3 - 1).max() < 1e-6
+    assert fl.metrics["angle_error_max_deg"] < 1e-5
+
+
+@pytest.mark.parametrize("method", ["mabf", "abf", "lscm"])
+def test_planar_mesh_flattens_to_itself(method):
+    if method == "lscm":
+        pytest.importorskip("igl")
+    p, f = disc_mesh(7, 10.0)
+    s = Surface(lift(p, "plane"), f)
+    fl = flatten(s, method)
+    assert rigid_residual(p, fl.uv) < 1e-6 * 10.0
+
+
+def test_area_scaled_and_centred():
+    s = surface("cap")
+    fl = flatten(s)
+    a3 = meshops.surface_area(s.vertices, s.faces)
+    sa = meshops.face_areas(fl.uv, s.faces, signed=True)
+    assert sa.min() > 0  # counter-clockwise
+    assert abs(sa.sum() / a3 - 1) < 1e-12
+    cent = (fl.uv[s.faces].mean(axis=1) * sa[:, None]).sum(0) / sa.sum()
+    assert np.abs(cent).max() < 1e-9
+
+
+def test_layouts_agree_on_converged_angles():
+    s = surface("cap")
+    ang, _, _ = mabf_angles(s.vertices, s.faces)
+    a = midpoint_layout(s.vertices, s.faces, ang)
+    b = least_squares_layout(s.vertices, s.faces, ang)
+    scale = np.sqrt(meshops.face_areas(a, s.faces).sum() / meshops.face_areas(b, s.faces).sum())
+    assert rigid_residual(a, b * scale) < 1e-7 * 20.0
+    # the planar angles of the midpoint layout are the solved angles
+    assert np.abs(meshops.corner_angles(a, s.faces) - ang).max() < 1e-8
+
+
+# --- accuracy against the peers ------------------------------------------------------
+
+
+def test_mabf_angle_error_not_worse_than_abf_and_lscm():
+    s = surface("cap", n_rings=10)
+    m = flatten(s, "mabf").metrics["angle_error_mean_deg"]
+    a = flatten(s, "abf").metrics["angle_error_mean_deg"]
+    assert m <= 1.1 * a
+    if pytest.importorskip("igl"):
+        lscm = flatten(s, "lscm").metrics["angle_error_mean_deg"]
+        assert m <= lscm
+    assert m > 0.01  # a sphere cap cannot be flattened without distortion
+
+
+def test_shared_lilium_no_flips_and_beats_lscm(shared_mesh):
+    trimesh = pytest.importorskip("trimesh")
+    m = trimesh.load(shared_mesh("lilium.obj"), process=False)
+    s = Surface(m.vertices, m.faces, name="lilium")
+    fl = flatten(s, "mabf")
+    assert fl.metrics["flipped_faces"] == 0 and fl.metrics["boundary_self_overlap"] == 0
+    pytest.importorskip("igl")
+    peer = flatten(s, "lscm")
+    assert fl.metrics["angle_error_mean_deg"] <= peer.metrics["angle_error_mean_deg"]
+
+
+@pytest.mark.slow
+def test_shared_camelhead_slivers_do_not_break_the_solve(shared_mesh):
+    trimesh = pytest.importorskip("trimesh")
+    m = trimesh.load(shared_mesh("camelhead.off"), process=False)
+    s = Surface(m.vertices, m.faces, name="camelhead")
+    assert meshops.corner_angles(s.vertices, s.faces).min() < np.radians(1.0)
+    fl = flatten(s, "mabf")
+    assert fl.metrics["flipped_faces"] == 0
+    assert fl.metrics["max_wheel_residual"] < 1e-9
+    assert fl.metrics["angle_error_mean_deg"] < 1.41  # LSCM's figure on this mesh
+
+
+# --- holes ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", ["plane", "cap"])
+def test_holes_survive(shape):
+    s = surface(shape, n_rings=8, hole=3.0)
+    assert len(meshops.boundary_loops(s.faces)) == 2
+    fl = flatten(s, "mabf")
+    assert fl.metrics["flipped_faces"] == 0 and fl.metrics["boundary_self_overlap"] == 0
+    assert fl.provenance.params["holes_filled"] == 1
+    reg = boundary_region(fl)
+    assert len(reg.holes) == 1
+    assert abs(reg.area - meshops.face_areas(fl.uv, s.faces).sum()) < 1e-6 * reg.area
+    if shape == "plane":
+        p, _ = disc_mesh(8, 10.0, 3.0)
+        assert rigid_residual(p, fl.uv) < 1e-6 * 10
+    else:
+        # the hole's rim closes up: angle error stays small (no tearing)
+        assert fl.metrics["angle_error_mean_deg"] < 2.0
+
+
+# --- refusals and checks --------------------------------------------------------------
+
+
+def test_closed_mesh_refused():
+    trimesh = pytest.importorskip("trimesh")
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    with pytest.raises(ClosedMeshError, match="closed"):
+        flatten(Surface(ico.vertices, ico.faces))
+
+
+def test_non_manifold_mesh_refused():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+    f = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    with pytest.raises(NonManifoldError):
+        flatten(Surface(v, f))
+
+
+def test_two_pieces_refused():
+    p, f = disc_mesh(4)
+    v = np.vstack([lift(p, "plane"), lift(p, "plane") + [30, 0, 0]])
+    with pytest.raises(MultipleComponentsError):
+        flatten(Surface(v, np.vstack([f, f + len(p)])))
+
+
+def test_unknown_method_and_option_refused():
+    s = surface("plane", n_rings=3)
+    with pytest.raises(ParameterError, match="mabf"):
+        flatten(s, "arap")
+    with pytest.raises(ParameterError):
+        flatten(s, "mabf", bogus=1)
+    with pytest.raises(ParameterError):
+        flatten(s, "mabf", layout="nope")
+
+
+def helix_strip(turns=1.6, n_t=160, n_r=4):
+    """A thin helical ramp over more than one turn: its development overlaps itself."""
+    t = np.linspace(0, 2 * np.pi * turns, n_t)
+    r = np.linspace(8.0, 10.0, n_r)
+    T, Rr = np.meshgrid(t, r, indexing="ij")
+    v = np.stack([Rr * np.cos(T), Rr * np.sin(T), 0.05 * T], -1).reshape(-1, 3)
+    idx = np.arange(n_t * n_r).reshape(n_t, n_r)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    f = np.concatenate([np.stack([a, d, b], -1).reshape(-1, 3), np.stack([b, d, c], -1).reshape(-1, 3)])
+    return Surface(v, f, name="helix")
+
+
+def test_overlap_is_detected_never_returned_silently():
+    s = helix_strip()
+    with pytest.raises(FlatteningError, match="crossing"):
+        flatten(s, "mabf")
+    fl = flatten(s, "mabf", check=False)
+    assert fl.metrics["boundary_self_overlap"] > 0
+
+
+def test_flip_metric_counts_flipped_faces():
+    s = surface("plane", n_rings=5)
+    uv = s.vertices[:, :2].copy()
+    assert flattening_metrics(s, uv)["flipped_faces"] == 0
+    inner = np.nonzero(~meshops.boundary_vertex_mask(s.n_vertices, s.faces))[0][3]
+    nbrs = s.faces[np.any(s.faces == inner, axis=1)]
+    far = uv[nbrs.ravel()].mean(0) + 3 * (uv[nbrs.ravel()].mean(0) - uv[inner]) + [5.0, 0]
+    uv[inner] = far
+    assert flipped_faces(uv, s.faces).sum() > 0
+    assert flattening_metrics(s, uv)["flipped_faces"] > 0
+
+
+# --- output ---------------------------------------------------------------------------
+
+
+def test_obj_round_trip(tmp_path):
+    fl = flatten(surface("saddle", n_rings=4))
+    path = tmp_path / "flat.obj"
+    save_obj(fl, path)
+    v, uv, f = load_obj_uv(path)
+    assert np.array_equal(f, fl.surface.faces)
+    assert np.allclose(v, fl.surface.vertices, rtol=0, atol=1e-12)
+    assert np.allclose(uv, fl.uv, rtol=0, atol=1e-12)
+    buf = io.StringIO()
+    save_obj(fl, buf)
+    assert buf.getvalue() == path.read_text()
