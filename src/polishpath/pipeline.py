@@ -9,8 +9,10 @@ stage's result; :meth:`Job.save` writes the machine files, ``summary.json``,
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import math
 import os
+import platform
 import random
 import shutil
 import tempfile
@@ -169,6 +171,9 @@ class Job:
         cfg["seed"] = self.seed
         s = {
             "polishpath_version": __version__,
+            "created": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+            "machine": {"node": platform.node(), "processor": platform.processor() or platform.machine(),
+                        "python": platform.python_version(), "cpus": os.cpu_count()},
             "config": cfg,
             "seed": self.seed,
             "surface": describe_surface(self.surface),
@@ -286,8 +291,17 @@ def _save_arrays(job: Job, path: Path) -> None:
     _atomic_write_bytes(path, w)
 
 
-def _atomic_write_text(path: Path, writer) -> None:
+def _mkstemp_public(path: Path) -> tuple[int, str]:
+    """A temp file beside ``path`` with the permissions a normal ``open`` would give (umask), not 0600."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)
+    return fd, tmp
+
+
+def _atomic_write_text(path: Path, writer) -> None:
+    fd, tmp = _mkstemp_public(path)
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
             writer(fh)
@@ -299,7 +313,7 @@ def _atomic_write_text(path: Path, writer) -> None:
 
 
 def _atomic_write_bytes(path: Path, writer) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    fd, tmp = _mkstemp_public(path)
     try:
         with os.fdopen(fd, "wb") as fh:
             writer(fh)
