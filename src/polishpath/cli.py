@@ -301,6 +301,136 @@ def report_cmd(
         typer.echo(f"report: {written['report']}")
 
 
+@app.command("simulate")
+def simulate_cmd(
+    surface: str = SURFACE_ARG,
+    patterns: str = typer.Option("pseudorandom,raster,spiral,rectangular", "--patterns", help="Comma-separated path patterns to compare."),
+    spacing: float = typer.Option(0.5, "--spacing", "-s", help="Dwell-point spacing, mm (in the flattened plane)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the planner, the initial surface and the process noise."),
+    output: Path = typer.Option(Path("out-simulate"), "-o", "--output", help="Output folder; a `polishpath plan` run folder gets a simulation/ subfolder and its report is rebuilt."),
+    patch: float = typer.Option(20.0, "--patch", help="Side of the simulated square patch at the region's centre, mm."),
+    dx: float = typer.Option(0.005, "--dx", help="Simulation pixel pitch, mm (5 um resolves 100 1/mm)."),
+    fwhm: float = typer.Option(1.0, "--fwhm", help="Gaussian tool influence function, full width at half maximum, mm."),
+    rate: float = typer.Option(5.0, "--rate", help="Peak removal rate of the tool influence function, nm/s."),
+    depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (sets the dwell time per point)."),
+    time_model: str = typer.Option("segments", "--time-model", help="'segments' (continuous motion) or 'points' (stop and dwell)."),
+    method: str = typer.Option("mabf", "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection."),
+    units: Optional[str] = UNITS_OPT,
+    scale: Optional[float] = SCALE_OPT,
+    component: str = COMPONENT_OPT,
+    json_out: bool = typer.Option(False, "--json", help="Print the comparison as JSON."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+):
+    """Simulate polishing with each path pattern and compare the PSD before and after (the paper's Table 4).
+
+    Plans every pattern on the flattened surface, simulates Preston removal with
+    the same tool and process on a patch of the part, and prints before / after
+    band-average PSD (1e3-1e5 1/m) and the suppression ratio; writes psd.png,
+    residual maps, table.txt and results.json. The model's assumptions are in
+    docs/simulation.md.
+
+    Example: polishpath simulate hemisphere --spacing 0.5 --seed 1 -o out-sim
+    """
+    from . import progress
+    from .flatten import boundary_region
+    from .pipeline import flatten_surface
+    from .simulate import compare_patterns, gaussian_tif
+    from .surfaces import load_surface
+
+    _quiet(quiet, json_out)
+    with _guard(output):
+        pats = [p.strip() for p in patterns.split(",") if p.strip()]
+        if not pats:
+            from .errors import ParameterError
+
+            raise ParameterError("--patterns is empty.", "Name at least one pattern, e.g. pseudorandom,raster.")
+        with progress.stage("reading surface"):
+            s = load_surface(surface, units=units, scale=scale, component=component)
+        with progress.stage(f"flattening ({method})"):
+            region = boundary_region(flatten_surface(s, method))
+        run_dir = output
+        sim_dir = output / "simulation" if (output / "summary.json").exists() else output
+        with progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):
+            res = compare_patterns(region, pats, spacing, seed, dx_mm=dx, tif=gaussian_tif(rate, fwhm_mm=fwhm),
+                                   removal_depth_nm=depth, time_model=time_model, patch_mm=patch, out_dir=sim_dir)
+        if sim_dir != output:
+            from .pipeline import rebuild_report
+
+            with progress.stage("rebuilding the run's report"):
+                rebuild_report(run_dir)
+        if json_out:
+            _print_json({"surface": s.source or s.name, "output": str(sim_dir), "rows": res["rows"], "params": res["params"]})
+            return
+        typer.echo(res["table"])
+        typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, psd.png, residual maps)")
+
+
+@app.command("psd")
+def psd_cmd(
+    file: Path = typer.Argument(..., metavar="FILE", help="Measured profile or map: text (x z, x y z, grid), CSV, or Zygo .datx."),
+    after: Optional[Path] = typer.Argument(None, metavar="[AFTER]", help="A second measurement (after polishing) to compare with FILE."),
+    band: str = typer.Option("1,100", "--band", help="Band 'lo,hi' in 1/mm (default 1,100 = 1e3-1e5 1/m)."),
+    spacing: Optional[float] = typer.Option(None, "--spacing", help="Path spacing, mm: name peaks at 1/spacing and harmonics."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write a log-log PSD plot (PNG)."),
+    json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
+):
+    """PSD and band RMS of a measured surface or profile; with AFTER, the suppression ratio.
+
+    Examples: polishpath psd before.datx after.datx --band 1,100 ;  polishpath psd profile.txt --spacing 0.5
+    """
+    from .psd import analyze_file, compare_files
+
+    with _guard():
+        lo, hi = _parse_pair(band, "--band")
+        if after is None:
+            res = analyze_file(file, (lo, hi), spacing_mm=spacing)
+            psds = {file.name: res["psd"]}
+        else:
+            res = compare_files(file, after, (lo, hi), spacing_mm=spacing)
+            psds = {f"before ({file.name})": res["before"]["psd"], f"after ({after.name})": res["after"]["psd"]}
+        if plot is not None:
+            from .simulate import plot_psds
+
+            plot.parent.mkdir(parents=True, exist_ok=True)
+            plot_psds(psds, plot, band=(lo, hi))
+        if json_out:
+            _print_json(_psd_json(res))
+            return
+        _print_psd(res, file, after, lo, hi)
+        if plot is not None:
+            typer.echo(f"wrote {plot}")
+
+
+def _psd_json(res: dict) -> dict:
+    out = {}
+    for k, v in res.items():
+        if hasattr(v, "to_dict"):
+            out[k] = v.to_dict()
+        elif isinstance(v, dict):
+            out[k] = _psd_json(v)
+        else:
+            out[k] = v
+    return out
+
+
+def _print_psd(res: dict, file: Path, after: Optional[Path], lo: float, hi: float) -> None:
+    def one(r, label):
+        typer.echo(f"{label}: {r['kind']} {tuple(r['shape'])} at {r['dx_mm'] * 1000:.4g} um, {r['n_nan']} missing pixels")
+        typer.echo(f"  RMS {r['rms_nm']:.4g} nm; band {lo:g}-{hi:g} 1/mm: RMS {r['band_rms_nm']:.4g} nm, "
+                   f"average PSD {r['band_average']:.4g} {r['units']}")
+        for pk in r.get("peaks", [])[:8]:
+            typer.echo("  peak " + ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in pk.items()))
+
+    if after is None:
+        one(res, str(file))
+    else:
+        one(res["before"], f"before {file}")
+        one(res["after"], f"after  {after}")
+        sr = res.get("suppression_ratio")
+        if sr is not None:
+            typer.echo(f"suppression ratio (1 - after/before, band-average PSD): {sr * 100:.2f} %")
+
+
 def _parse_pair(text: str, opt: str) -> tuple[float, float]:
     from .errors import ParameterError
 

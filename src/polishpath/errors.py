@@ -40,6 +40,10 @@ class MeshFileError(InputError):
     """A mesh file is missing, empty, unreadable or of an unknown format."""
 
 
+class MeasurementFileError(InputError):
+    """A measurement file is missing, unreadable or not in a layout polishpath knows."""
+
+
 class SpecError(InputError):
     """A surface spec (built-in name with parameters, or a TOML file) is invalid."""
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from . import progress
 from ._version import __version__
-from .errors import ParameterError, SpecError
+from .errors import ParameterError, SpacingTooLargeError, SpecError
 from .types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
 
 
@@ -405,12 +405,20 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         return plan(region, planar_spacing, cfg.pattern, seed=cfg.seed, start=cfg.start, margin=cfg.margin)
 
     with progress.stage(f"planning {cfg.pattern} path", timings, "plan"):
-        if cfg.spacing_on == "surface":
-            planar, spath, planar_spacing = honour_surface_spacing(flat, cfg.spacing, planner)
-        else:
-            planar_spacing = cfg.spacing
-            planar = planner(planar_spacing)
-            spath = map_to_surface(flat, planar)
+        try:
+            if cfg.spacing_on == "surface":
+                planar, spath, planar_spacing = honour_surface_spacing(flat, cfg.spacing, planner)
+            else:
+                planar_spacing = cfg.spacing
+                planar = planner(planar_spacing)
+                spath = map_to_surface(flat, planar)
+        except SpacingTooLargeError as exc:
+            x0, y0, x1, y1 = region.bounds
+            raise SpacingTooLargeError(
+                f"spacing {cfg.spacing:g} mm is too large for {surface.name} "
+                f"(its flattened region is {x1 - x0:.4g} x {y1 - y0:.4g} mm): {exc.message}",
+                "Use a smaller --spacing (at most about half the part's width).",
+            ) from None
     with progress.stage("path metrics", timings, "metrics"):
         pm = path_metrics(planar, region)
     smooth_kw = {k: getattr(cfg, k) for k in ("feed_mm_min", "period_ms", "chord_tol_mm") if getattr(cfg, k) is not None}

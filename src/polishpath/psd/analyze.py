@@ -1,0 +1,102 @@
+"""File-level PSD analysis for the ``polishpath psd`` command."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .core import PAPER_BAND_PER_MM, PSD, band_average, band_coverage, band_rms, find_peaks, psd_1d, radial_psd, suppression_ratio
+from .io import Measurement, read_measurement
+
+
+def measurement_psd(m: Measurement, *, window: str = "hann", detrend="tilt", nan: str | None = None) -> PSD:
+    """Profile PSD of a measurement: the profile itself, or the average over the rows of a map.
+
+    Parameters
+    ----------
+    m : Measurement
+    window, detrend :
+        As in :func:`polishpath.psd.psd_1d`.
+    nan : {"drop", "interpolate", "raise"}, optional
+        Default: interpolate for profiles (one profile cannot be dropped),
+        drop rows for maps (when some rows are complete; else interpolate).
+
+    Returns
+    -------
+    PSD
+        ``kind="1d"`` in nm^2 mm — the same quantity for profilometer and
+        interferometer data, so before/after measurements stay comparable.
+    """
+    if nan is None:
+        if m.kind == "map" and np.isfinite(m.z_nm).all(axis=1).sum() >= max(8, m.z_nm.shape[0] // 2):
+            nan = "drop"
+        else:
+            nan = "interpolate"
+    return psd_1d(m.z_nm, m.dx_mm, window=window, detrend=detrend, nan=nan)
+
+
+def analyze_file(file, band: tuple[float, float] = PAPER_BAND_PER_MM, *, spacing_mm: float | None = None,
+                 window: str = "hann", detrend="tilt", **read_kwargs) -> dict[str, Any]:
+    """PSD, band RMS, band-average PSD and peaks of a measured profile or map.
+
+    Parameters
+    ----------
+    file : str or Path
+        Any format :func:`read_measurement` reads.
+    band : (float, float)
+        Band in 1/mm (default 1-100 1/mm = 10^3-10^5 1/m).
+    spacing_mm : float, optional
+        Path spacing, mm, to name peaks at 1/spacing and harmonics.
+    window, detrend :
+        PSD options.
+    **read_kwargs :
+        Passed to :func:`read_measurement` (units, dx_mm ...).
+
+    Returns
+    -------
+    dict
+        ``file``, ``kind``, ``shape``, ``dx_mm``, ``n_nan``, ``band_per_mm``,
+        ``band_covered_per_mm`` (the part of the band the data resolves),
+        ``band_rms_nm``, ``band_average`` and ``units``, ``rms_nm`` (all
+        frequencies), ``peaks``, ``psd`` (:class:`PSD`), ``psd_radial``
+        (maps only) and ``measurement_params``.
+    """
+    m = read_measurement(file, **read_kwargs)
+    p = measurement_psd(m, window=window, detrend=detrend)
+    out: dict[str, Any] = {
+        "file": str(file), "kind": m.kind, "shape": list(np.shape(m.z_nm)), "dx_mm": m.dx_mm, "n_nan": m.n_nan,
+        "band_per_mm": list(band), "band_covered_per_mm": list(band_coverage(p, *band)),
+        "band_rms_nm": band_rms(p, *band), "band_average": band_average(p, *band), "units": p.units,
+        "rms_nm": float(np.sqrt(p.params["variance_nm2"])), "peaks": find_peaks(p, spacing_mm, band=band),
+        "psd": p, "measurement_params": dict(m.params), "psd_params": dict(p.params),
+    }
+    if m.kind == "map":
+        out["psd_radial"] = radial_psd(m.z_nm, m.dx_mm, m.dy_mm, window=window, detrend=detrend)
+    return out
+
+
+def compare_files(before, after, band: tuple[float, float] = PAPER_BAND_PER_MM, **kwargs) -> dict[str, Any]:
+    """Suppression ratio between two measurements (before / after polishing).
+
+    Parameters
+    ----------
+    before, after : str or Path
+        Measurement files (same kind of measurement is advisable).
+    band : (float, float)
+        Band in 1/mm.
+    **kwargs :
+        Passed to :func:`analyze_file`.
+
+    Returns
+    -------
+    dict
+        ``before`` and ``after`` (as from :func:`analyze_file`),
+        ``suppression_ratio`` (1 - after/before band-average PSD) and
+        ``band_rms_ratio`` (after/before band RMS).
+    """
+    a = analyze_file(before, band, **kwargs)
+    b = analyze_file(after, band, **kwargs)
+    return {"before": a, "after": b, "band_per_mm": list(band),
+            "suppression_ratio": suppression_ratio(a["psd"], b["psd"], band),
+            "band_rms_ratio": b["band_rms_nm"] / a["band_rms_nm"] if a["band_rms_nm"] > 0 else float("nan")}
