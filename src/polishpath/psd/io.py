@@ -18,16 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, require
+from ..errors import MeasurementFileError, require
 
 _TO_MM = {"m": 1e3, "mm": 1.0, "um": 1e-3, "µm": 1e-3, "micron": 1e-3, "nm": 1e-6}
 _TO_NM = {"m": 1e9, "mm": 1e6, "um": 1e3, "µm": 1e3, "micron": 1e3, "nm": 1.0, "a": 0.1, "angstrom": 0.1}
 _ZYGO_UNITS = {"meters": "m", "millimeters": "mm", "milimeters": "mm", "micrometers": "um",
                "microns": "um", "nanometers": "nm", "angstroms": "angstrom"}
-
-
-class MeasurementFileError(InputError):
-    """A measurement file is missing, unreadable or not in a layout polishpath knows."""
 
 
 @dataclass(frozen=True)

@@ -1,1 +1,360 @@
-"""polishpath.smooth"""
+"""polishpath.smooth — NURBS through every dwell point, then constant-period samples.
+
+Stage function :func:`smooth` turns a :class:`~polishpath.types.SurfacePath` into a
+:class:`~polishpath.types.ToolPath` (paper section 4.2):
+
+1. one cubic B-spline (a NURBS with weights 1) through all dwell points of each
+   continuous piece (:func:`interpolate_nurbs`, banded O(N) solve), the pieces
+   joined into one curve with full-multiplicity knots where the tool lifts;
+2. a dwell time per point (uniform, scaled by the part area each point stands
+   for, or given) turned into a feed schedule;
+3. samples at a constant interpolation period with a curvature-limited feed
+   (:func:`interpolate_constant_period`).
+
+Defaults (see ``docs/machine-output.md``): feed 600 mm/min (10 mm/s, the middle
+of the 100-2000 mm/min range of small-tool sub-aperture polishing), period 4 ms
+(CNC interpolation periods are 1-8 ms), chord tolerance 1 um (well under the
+form tolerance of polished optics, so the straight moves do not show).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import ParameterError, SmoothingError
+from ..types import NurbsCurve, Provenance, SurfacePath, ToolPath
+from .interpolate import arc_lengths, chord_errors, dwell_regions, interpolate_constant_period
+from .nurbs import (
+    averaged_knots,
+    basis_functions,
+    bezier_cubic_through,
+    evaluate,
+    find_spans,
+    interpolate_nurbs,
+    interpolation_params,
+    join_curves,
+    span_polynomials,
+)
+
+__all__ = [
+    "smooth",
+    "interpolate_nurbs",
+    "evaluate",
+    "interpolate_constant_period",
+    "interpolation_params",
+    "averaged_knots",
+    "find_spans",
+    "basis_functions",
+    "span_polynomials",
+    "join_curves",
+    "arc_lengths",
+    "chord_errors",
+    "dwell_regions",
+    "sample_normals",
+    "curve_deviation",
+    "point_mesh_distance",
+    "piece_curves",
+    "DEFAULT_FEED_MM_MIN",
+    "DEFAULT_PERIOD_MS",
+    "DEFAULT_CHORD_TOL_MM",
+]
+
+DEFAULT_FEED_MM_MIN = 600.0
+DEFAULT_PERIOD_MS = 4.0
+DEFAULT_CHORD_TOL_MM = 0.001
+
+
+def _pieces_of(sp: SurfacePath) -> np.ndarray:
+    n = len(sp.xyz)
+    pieces = np.asarray(sp.planar.pieces, dtype=np.int64) if sp.planar is not None else np.array([0, n])
+    if len(pieces) < 2 or pieces[0] != 0 or pieces[-1] != n or np.any(np.diff(pieces) <= 0):
+        raise SmoothingError(
+            f"The path's piece offsets {pieces.tolist()[:6]}... do not cover its {n} points in order.",
+            "Give PlanarPath.pieces as increasing offsets from 0 to the number of points.",
+        )
+    return pieces
+
+
+def _piece_curve(pts: np.ndarray, degree: int, parametrization: str) -> tuple[NurbsCurve, np.ndarray]:
+    if len(pts) >= degree + 1:
+        return interpolate_nurbs(pts, degree, parametrization)
+    if degree != 3:
+        raise SmoothingError(f"A piece of {len(pts)} points is too short for degree {degree}.")
+    if len(pts) >= 2:
+        interpolation_params(pts, parametrization)  # same repeated-point check
+    return bezier_cubic_through(pts)
+
+
+def piece_curves(curve: NurbsCurve, piece_params: np.ndarray) -> list[NurbsCurve]:
+    """Split a joined curve back into its pieces (each clamped, parameter kept).
+
+    Parameters
+    ----------
+    curve : NurbsCurve
+        From :func:`smooth` (``ToolPath.curve``).
+    piece_params : (K + 1,) float
+        ``ToolPath.stats["piece_params"]``.
+
+    Returns
+    -------
+    list of NurbsCurve
+        Control points and knots of each continuous piece (what one G06.2 block
+        sequence runs).
+    """
+    p = curve.degree
+    U = curve.knots
+    out = []
+    start_ctrl = 0
+    for k in range(len(piece_params) - 1):
+        a, b = piece_params[k], piece_params[k + 1]
+        # knots of piece k: p+1 copies of a, the interior knots in (a, b), p+1 copies of b
+        inner = U[(U > a) & (U < b)]
+        n_ctrl = len(inner) + p + 1
+        kn = np.concatenate([np.full(p + 1, a), inner, np.full(p + 1, b)])
+        out.append(NurbsCurve(p, kn, curve.control_points[start_ctrl : start_ctrl + n_ctrl],
+                              curve.weights[start_ctrl : start_ctrl + n_ctrl]))
+        start_ctrl += n_ctrl
+    return out
+
+
+def sample_normals(tool_path: ToolPath) -> np.ndarray:
+    """Unit surface normal at each sample, (M, 3).
+
+    Interpolated linearly in the curve parameter between the normals of the two
+    neighbouring dwell points (of the same piece), then normalised.
+    """
+    sp = tool_path.surface_path
+    dp = tool_path.dwell_params
+    u = tool_path.sample_params
+    nrm = np.stack([np.interp(u, dp, sp.normals[:, j]) for j in range(3)], axis=1)
+    ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+    near = sp.normals[np.clip(np.searchsorted(dp, u), 0, len(dp) - 1)]
+    return np.where(ln > 1e-9, nrm / np.maximum(ln, 1e-300), near)
+
+
+def point_mesh_distance(points: np.ndarray, surface) -> np.ndarray:
+    """Distance from each point (M, 3) to a triangle mesh (Surface or trimesh.Trimesh), (M,) mm.
+
+    libigl's AABB tree (``igl.point_mesh_squared_distance``) when installed
+    (about 7x faster), else ``trimesh.proximity.closest_point``.
+    """
+    v = np.ascontiguousarray(surface.vertices, dtype=np.float64)
+    f = np.ascontiguousarray(surface.faces, dtype=np.int64)
+    try:
+        import igl
+
+        d2, _, _ = igl.point_mesh_squared_distance(np.ascontiguousarray(points, dtype=np.float64), v, f)
+        return np.sqrt(np.maximum(d2, 0.0))
+    except ImportError:
+        import trimesh
+
+        mesh = trimesh.Trimesh(v, f, process=False)
+        _, dist, _ = trimesh.proximity.closest_point(mesh, points)
+        return np.asarray(dist)
+
+
+def curve_deviation(
+    curve: NurbsCurve,
+    dwell_params: np.ndarray,
+    xyz: np.ndarray,
+    normals: np.ndarray,
+    pieces: np.ndarray,
+    surface=None,
+    max_samples: int = 20000,
+) -> dict:
+    """How far the smooth curve strays between dwell points.
+
+    At the parameter midpoint of (up to ``max_samples``, evenly chosen)
+    dwell-point intervals, the curve point is compared with the straight step
+    between the two dwell points: the *lateral overshoot* is its distance from
+    that segment within the tangent plane (normal component removed, normal =
+    mean of the two dwell normals); the *deviation from the surface* is its
+    distance to the mesh (:func:`point_mesh_distance`), when ``surface`` is given.
+
+    Returns
+    -------
+    dict
+        ``lateral_overshoot_max`` (mm), ``normal_offset_max`` (mm, off the chord
+        along the normal), ``surface_deviation_max`` / ``surface_deviation_mean``
+        (mm, or None without surface), ``deviation_samples``.
+    """
+    idx = np.arange(len(xyz) - 1)
+    keep = np.ones(len(idx), dtype=bool)
+    for b in pieces[1:-1]:
+        keep[b - 1] = False
+    idx = idx[keep]
+    if len(idx) == 0:
+        return {"lateral_overshoot_max": 0.0, "normal_offset_max": 0.0, "surface_deviation_max": None,
+                "surface_deviation_mean": None, "deviation_samples": 0}
+    if len(idx) > max_samples:
+        idx = idx[np.linspace(0, len(idx) - 1, max_samples).astype(np.int64)]
+    um = 0.5 * (dwell_params[idx] + dwell_params[idx + 1])
+    pm = evaluate(curve, um)
+    a, b = xyz[idx], xyz[idx + 1]
+    e = b - a
+    ll = np.einsum("ij,ij->i", e, e)
+    t = np.clip(np.divide(np.einsum("ij,ij->i", pm - a, e), ll, out=np.zeros(len(ll)), where=ll > 0), 0, 1)
+    dv = pm - (a + t[:, None] * e)
+    n = normals[idx] + normals[idx + 1]
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    dn = np.einsum("ij,ij->i", dv, n)
+    lat = np.linalg.norm(dv - dn[:, None] * n, axis=1)
+    out = {"lateral_overshoot_max": float(lat.max()), "normal_offset_max": float(np.abs(dn).max()),
+           "surface_deviation_max": None, "surface_deviation_mean": None, "deviation_samples": int(len(idx))}
+    if surface is not None:
+        dist = point_mesh_distance(pm, surface)
+        out["surface_deviation_max"] = float(dist.max())
+        out["surface_deviation_mean"] = float(dist.mean())
+    return out
+
+
+def smooth(
+    surface_path: SurfacePath,
+    *,
+    feed_mm_min: float = DEFAULT_FEED_MM_MIN,
+    period_ms: float = DEFAULT_PERIOD_MS,
+    chord_tol_mm: float = DEFAULT_CHORD_TOL_MM,
+    dwell_times: np.ndarray | None = None,
+    area_weighted: bool = True,
+    max_feed_mm_min: float | None = None,
+    surface=None,
+    degree: int = 3,
+    parametrization: str = "chord",
+    deviation_samples: int = 20000,
+    schedule_passes: int = 3,
+) -> ToolPath:
+    """Smooth a surface path with a NURBS through every dwell point and sample it.
+
+    Parameters
+    ----------
+    surface_path : SurfacePath
+        Dwell points ``xyz`` (N, 3) mm, normals, ``dwell_weight`` (N,), pieces.
+    feed_mm_min : float
+        Mean feed, mm/min: the uniform dwell time is ``path length / (N F)``.
+    period_ms : float
+        Interpolation period, ms.
+    chord_tol_mm : float
+        Largest distance between the curve and the straight move between two samples, mm.
+    dwell_times : (N,) float, optional
+        Time around each dwell point, s (e.g. from a dwell-time CSV). Default:
+        uniform, times ``dwell_weight`` when ``area_weighted``.
+    area_weighted : bool
+        Scale the default uniform dwell time by the part area each point stands
+        for (``SurfacePath.dwell_weight``), so uniform removal stays uniform.
+    max_feed_mm_min : float, optional
+        Machine feed limit, mm/min (default 5 x ``feed_mm_min``).
+    surface : Surface, optional
+        The mesh, to measure the curve's deviation from it between dwell points.
+    degree : int
+        Curve degree (3, the paper's cubic).
+    parametrization : {"chord", "centripetal"}
+    deviation_samples : int
+        Most dwell intervals checked for the deviation figures.
+    schedule_passes : int
+        Interpolation runs used to correct the feed schedule where the curvature
+        limit slows the tool (see :func:`interpolate_constant_period`).
+
+    Returns
+    -------
+    ToolPath
+        ``curve`` (joined over pieces), ``dwell_params`` (N,), ``samples`` (M, 3),
+        ``sample_params`` (M,), ``feed_mm_min`` (M,), ``stats``: the
+        interpolation figures, ``dwell_through_max`` (largest distance between
+        the curve at a dwell parameter and its dwell point, mm), the deviation
+        figures of :func:`curve_deviation`, ``piece_params`` (K+1,) and
+        ``sample_pieces`` (K+1,) offsets, ``dwell_times`` (N,) s.
+    """
+    t0 = time.perf_counter()
+    xyz = np.asarray(surface_path.xyz)
+    n = len(xyz)
+    if n < 1:
+        raise SmoothingError("The surface path has no dwell point.", "Plan a path with at least one point.")
+    if max_feed_mm_min is None:
+        max_feed_mm_min = 5.0 * feed_mm_min
+    pieces = _pieces_of(surface_path)
+    curves, params, lens = [], [], []
+    for k in range(len(pieces) - 1):
+        pts = xyz[pieces[k] : pieces[k + 1]]
+        c, u = _piece_curve(pts, degree, parametrization)
+        curves.append(c)
+        params.append(u)
+        lens.append(float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()))
+    lens = np.asarray(lens)
+    pos = lens[lens > 0]
+    lens = np.where(lens > 0, lens, pos.mean() if len(pos) else 1.0)
+    curve, off = join_curves(curves, lens)
+    dwell_params = np.concatenate(
+        [off[k] + (off[k + 1] - off[k]) * params[k] for k in range(len(curves))]
+    )
+    # the last dwell point of a piece sits just below the join (the join value is the next piece)
+    ends = pieces[1:-1] - 1
+    dwell_params[ends] = np.nextafter(off[1:-1], -np.inf)
+    through = float(np.abs(evaluate(curve, dwell_params) - xyz).max())
+
+    total_len = float(lens.sum())
+    if dwell_times is None:
+        w = np.asarray(surface_path.dwell_weight) if area_weighted else np.ones(n)
+        base = total_len / (n * feed_mm_min / 60.0) if total_len > 0 else 1.0
+        times = base * w
+        time_source = "uniform x area weight" if area_weighted else "uniform"
+    else:
+        times = np.asarray(dwell_times, dtype=np.float64)
+        if times.shape != (n,):
+            raise ParameterError(
+                f"dwell_times has shape {times.shape} but the path has {n} dwell points.",
+                "Give one time (s) per dwell point, in path order.",
+            )
+        time_source = "given"
+    samples, sparams, feeds, spieces = [], [], [], [0]
+    agg: dict = {}
+    for k in range(len(curves)):
+        sl = slice(pieces[k], pieces[k + 1])
+        res = interpolate_constant_period(
+            curve, feed_mm_min, period_ms, chord_tol_mm,
+            dwell_params=dwell_params[sl], dwell_times=times[sl],
+            max_feed_mm_min=max_feed_mm_min, u_range=(off[k], np.nextafter(off[k + 1], -np.inf)),
+            schedule_passes=schedule_passes,
+        )
+        samples.append(res["samples"])
+        sparams.append(res["params"])
+        feeds.append(res["feed_mm_min"])
+        spieces.append(spieces[-1] + len(res["params"]))
+        for key, val in res["stats"].items():
+            if key in ("n_samples", "duration_s", "curve_length"):
+                agg[key] = agg.get(key, 0) + val
+            elif key.endswith("_min_mm_min"):
+                agg[key] = min(agg.get(key, np.inf), val)
+            elif key == "feed_fluctuation_rms" or key == "feed_limited_share":
+                agg.setdefault(key + "_pieces", []).append(val)
+            else:
+                agg[key] = max(agg.get(key, -np.inf), val)
+    for key in ("feed_fluctuation_rms", "feed_limited_share"):
+        vals = agg.pop(key + "_pieces")
+        agg[key] = float(np.average(vals, weights=np.diff(spieces)))
+    stats = dict(agg)
+    stats.update(curve_deviation(curve, dwell_params, xyz, surface_path.normals, pieces, surface, deviation_samples))
+    stats.update(
+        dwell_through_max=through,
+        n_dwell_points=int(n),
+        n_control_points=int(len(curve.control_points)),
+        piece_params=off.tolist(),
+        sample_pieces=spieces,
+        dwell_times=times,
+        dwell_time_source=time_source,
+        dwell_time_total_s=float(times.sum()),
+        seconds=time.perf_counter() - t0,
+    )
+    prov = Provenance(
+        "smooth",
+        f"nurbs{degree}_{parametrization}+constant_period",
+        {"feed_mm_min": float(feed_mm_min), "period_ms": float(period_ms), "chord_tol_mm": float(chord_tol_mm),
+         "max_feed_mm_min": float(max_feed_mm_min), "degree": int(degree), "parametrization": parametrization,
+         "area_weighted": bool(area_weighted), "dwell_times": time_source,
+         "schedule_passes": int(schedule_passes)},
+        seed=surface_path.provenance.seed,
+    )
+    return ToolPath(curve=curve, dwell_params=dwell_params, samples=np.concatenate(samples),
+                    sample_params=np.concatenate(sparams), feed_mm_min=np.concatenate(feeds),
+                    period_ms=float(period_ms), surface_path=surface_path, provenance=prov, stats=stats)
