@@ -278,6 +278,7 @@ def _save_arrays(job: Job, path: Path) -> None:
         "plan_uv": pp.uv, "plan_ij": pp.ij, "plan_pieces": pp.pieces, "plan_unreached": pp.unreached,
         "xyz": sp.xyz, "normals": sp.normals, "dwell_weight": sp.dwell_weight,
         "samples": tp.samples, "feed_mm_min": tp.feed_mm_min, "dwell_params": tp.dwell_params,
+        "dwell_times": tp.dwell_times if tp.dwell_times is not None else np.zeros(0),
         "knots": tp.curve.knots, "control_points": tp.curve.control_points,
     }
     for k, v in fl.residuals.items():
@@ -425,7 +426,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     if cfg.dwell_times:
         from .export import read_dwell_times
 
-        smooth_kw["dwell_times"] = read_dwell_times(cfg.dwell_times, expected=planar.n_points)
+        smooth_kw["dwell_times"] = read_dwell_times(cfg.dwell_times, n_points=planar.n_points)
     with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth"):
         tool = smooth(spath, surface=surface, **smooth_kw)
     return Job(cfg, surface, flat, region, planar, spath, tool, planar_spacing, timings, pm)

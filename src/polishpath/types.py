@@ -409,7 +409,10 @@ class ToolPath:
         The dwell points this curve passes through.
     provenance : Provenance
     stats : dict
-        Feed fluctuation, chord error, deviation from the surface ...
+        Feed fluctuation, chord error, deviation from the surface ... (scalars and
+        short lists only; per-point data lives in the array fields).
+    dwell_times : (N,) float64 or None
+        Time the schedule spends around each dwell point, s.
     """
 
     curve: NurbsCurve
@@ -421,8 +424,11 @@ class ToolPath:
     surface_path: SurfacePath
     provenance: Provenance = field(default_factory=lambda: Provenance("smooth", "unknown"))
     stats: dict[str, Any] = field(default_factory=dict)
+    dwell_times: np.ndarray | None = None
 
     def __post_init__(self):
+        if self.dwell_times is not None:
+            object.__setattr__(self, "dwell_times", _frozen_array(self.dwell_times, np.float64, 1, None, "dwell_times"))
         object.__setattr__(self, "dwell_params", _frozen_array(self.dwell_params, np.float64, 1, None, "dwell_params"))
         object.__setattr__(self, "samples", _frozen_array(self.samples, np.float64, 2, 3, "samples"))
         object.__setattr__(self, "sample_params", _frozen_array(self.sample_params, np.float64, 1, None, "sample_params"))

@@ -59,6 +59,9 @@ def _text_out(file) -> Iterator[io.TextIOBase]:
     if not folder.is_dir():
         raise ExportError(f"Cannot write {path}: folder {folder} does not exist.", "Create the folder first.")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    mask = os.umask(0)  # mkstemp makes 0600 files: give the permissions a plain open() would
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)
     try:
         with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
             yield fh
@@ -121,7 +124,7 @@ def write_path_csv(path_data: ToolPath | SurfacePath, file, *, dwell_times: np.n
         Dwell points (N of them).
     file : str, Path or text file
     dwell_times : (N,) float, optional
-        Dwell time per point, s. Default: ``ToolPath.stats["dwell_times"]``; for a
+        Dwell time per point, s. Default: ``ToolPath.dwell_times``; for a
         bare SurfacePath, its relative ``dwell_weight`` (mean 1).
 
     Notes
@@ -132,7 +135,7 @@ def write_path_csv(path_data: ToolPath | SurfacePath, file, *, dwell_times: np.n
     """
     if isinstance(path_data, ToolPath):
         sp = path_data.surface_path
-        times = dwell_times if dwell_times is not None else path_data.stats.get("dwell_times")
+        times = dwell_times if dwell_times is not None else path_data.dwell_times
     elif isinstance(path_data, SurfacePath):
         sp = path_data
         times = dwell_times

@@ -264,7 +264,7 @@ def smooth(
         interpolation figures, ``dwell_through_max`` (largest distance between
         the curve at a dwell parameter and its dwell point, mm), the deviation
         figures of :func:`curve_deviation`, ``piece_params`` (K+1,) and
-        ``sample_pieces`` (K+1,) offsets, ``dwell_times`` (N,) s.
+        ``sample_pieces`` (K+1,) offsets; the times per dwell point are ``ToolPath.dwell_times``.
     """
     t0 = time.perf_counter()
     xyz = np.asarray(surface_path.xyz)
@@ -341,7 +341,6 @@ def smooth(
         n_control_points=int(len(curve.control_points)),
         piece_params=off.tolist(),
         sample_pieces=spieces,
-        dwell_times=times,
         dwell_time_source=time_source,
         dwell_time_total_s=float(times.sum()),
         seconds=time.perf_counter() - t0,
@@ -357,4 +356,5 @@ def smooth(
     )
     return ToolPath(curve=curve, dwell_params=dwell_params, samples=np.concatenate(samples),
                     sample_params=np.concatenate(sparams), feed_mm_min=np.concatenate(feeds),
-                    period_ms=float(period_ms), surface_path=surface_path, provenance=prov, stats=stats)
+                    period_ms=float(period_ms), surface_path=surface_path, provenance=prov, stats=stats,
+                    dwell_times=times)

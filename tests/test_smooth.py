@@ -1,0 +1,247 @@
+"""NURBS interpolation, evaluation and constant-period interpolation (issue 5, items 4-5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from polishpath.errors import ParameterError, SmoothingError
+from polishpath.mapping import map_to_surface
+from polishpath.smooth import (
+    chord_errors,
+    evaluate,
+    interpolate_constant_period,
+    interpolate_nurbs,
+    join_curves,
+    piece_curves,
+    sample_normals,
+    smooth,
+)
+from polishpath.types import NurbsCurve
+from test_mapping_helpers import polyline_surface_path, serpentine_path, spherical_cap
+
+
+def _walk(n, seed=0, d=3):
+    """A self-avoiding 8-direction walk on a 0.5 mm grid (like the planner's paths), on a gentle dome (mm)."""
+    rng = np.random.default_rng(seed)
+    dirs = np.array([[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1]])
+    cur, seen, out = (0, 0), {(0, 0)}, [(0, 0)]
+    while len(out) < n:
+        free = [(cur[0] + a, cur[1] + b) for a, b in dirs if (cur[0] + a, cur[1] + b) not in seen]
+        if not free:
+            break
+        cur = free[rng.integers(len(free))]
+        seen.add(cur)
+        out.append(cur)
+    xy = np.array(out, dtype=np.float64) * 0.5
+    if d == 2:
+        return xy
+    return np.column_stack([xy, 0.01 * (xy**2).sum(1) ** 0.5])
+
+
+@pytest.mark.parametrize("centripetal", [False, True])
+@pytest.mark.parametrize("n", [5, 12, 40])
+def test_interpolation_matches_geomdl(n, centripetal):
+    fitting = pytest.importorskip("geomdl.fitting")
+    pts = _walk(n, seed=n)
+    curve, u = interpolate_nurbs(pts, 3, "centripetal" if centripetal else "chord")
+    ref = fitting.interpolate_curve(pts.tolist(), 3, centripetal=centripetal)
+    assert np.allclose(curve.knots, ref.knotvector, atol=1e-12)
+    assert np.allclose(curve.control_points, np.array(ref.ctrlpts), atol=1e-9)
+    uu = np.linspace(0, 1, 97)
+    assert np.abs(evaluate(curve, uu) - np.array(ref.evaluate_list(uu.tolist()))).max() < 1e-9
+
+
+def test_curve_passes_through_every_point_and_knots_are_clamped():
+    pts = _walk(3000, seed=1)
+    curve, u = interpolate_nurbs(pts)
+    n, p = len(pts), curve.degree
+    assert p == 3 and len(curve.control_points) == n and len(curve.knots) == n + p + 1
+    assert np.all(np.diff(curve.knots) >= 0)
+    assert np.all(curve.knots[: p + 1] == 0) and np.all(curve.knots[-(p + 1):] == 1)
+    assert np.all(np.diff(u) > 0) and u[0] == 0 and u[-1] == 1
+    assert np.abs(evaluate(curve, u) - pts).max() <= 1e-9
+    assert np.all(curve.weights == 1)
+
+
+def test_centripetal_parameters_follow_square_root_of_chords():
+    pts = _walk(50, seed=5)
+    _, u = interpolate_nurbs(pts, parametrization="centripetal")
+    d = np.sqrt(np.linalg.norm(np.diff(pts, axis=0), axis=1))
+    assert np.allclose(np.diff(u), d / d.sum(), atol=1e-14)
+    with pytest.raises(ParameterError):
+        interpolate_nurbs(pts, parametrization="uniformish")
+
+
+@pytest.mark.parametrize("n", [2, 3])
+def test_short_inputs_lower_the_degree(n):
+    pts = _walk(10, seed=2)[:n]
+    curve, u = interpolate_nurbs(pts, 3)
+    assert curve.degree == n - 1
+    assert np.abs(evaluate(curve, u) - pts).max() <= 1e-12
+
+
+def test_bad_inputs_raise_clear_errors():
+    pts = _walk(10, seed=3)
+    rep = np.insert(pts, 4, pts[4], axis=0)
+    with pytest.raises(SmoothingError, match="coincide"):
+        interpolate_nurbs(rep)
+    with pytest.raises(SmoothingError, match="at least 2"):
+        interpolate_nurbs(pts[:1])
+    bad = pts.copy()
+    bad[2, 0] = np.nan
+    with pytest.raises(SmoothingError, match="NaN"):
+        interpolate_nurbs(bad)
+
+
+def test_derivatives_match_finite_differences():
+    curve, _ = interpolate_nurbs(_walk(30, seed=4))
+    u = np.linspace(0.01, 0.99, 57)
+    c, d1, d2 = evaluate(curve, u, 2)
+    e = 1e-6
+    fd1 = (evaluate(curve, u + e) - evaluate(curve, u - e)) / (2 * e)
+    fd2 = (evaluate(curve, u + e, 1)[1] - evaluate(curve, u - e, 1)[1]) / (2 * e)
+    assert np.abs(fd1 - d1).max() <= 1e-6 * np.abs(d1).max()
+    assert np.abs(fd2 - d2).max() <= 1e-5 * np.abs(d2).max()
+
+
+def test_rational_evaluation_draws_an_exact_circle():
+    # quarter circle: weights 1, sqrt(2)/2, 1 (Eq. 10 with non-unit weights)
+    w = np.array([1, 2**-0.5, 1])
+    quarter = NurbsCurve(2, np.array([0, 0, 0, 1, 1, 1.0]), np.array([[1, 0], [1, 1], [0, 1.0]]), w)
+    u = np.linspace(0, 1, 101)
+    c, d1, _ = evaluate(quarter, u, 2)
+    assert np.abs(np.linalg.norm(c, axis=1) - 1).max() < 1e-12
+    assert np.abs(np.einsum("ij,ij->i", c, d1)).max() < 1e-9  # tangent perpendicular to the radius
+
+
+def test_joined_pieces_keep_their_own_shapes():
+    a, b = _walk(20, seed=6), _walk(9, seed=7) + 50.0
+    ca, ua = interpolate_nurbs(a)
+    cb, ub = interpolate_nurbs(b)
+    joined, off = join_curves([ca, cb], [1.0, 3.0])
+    assert off.tolist() == [0.0, 0.25, 1.0]
+    assert np.abs(evaluate(joined, 0.25 * ua[:-1]) - a[:-1]).max() < 1e-9
+    assert np.abs(evaluate(joined, 0.25 + 0.75 * ub) - b).max() < 1e-9
+    parts = piece_curves(joined, off)
+    assert [len(p.control_points) for p in parts] == [20, 9]
+    assert np.allclose(parts[1].control_points, cb.control_points)
+
+
+def test_constant_period_keeps_the_chord_error_under_tolerance():
+    curve, _ = interpolate_nurbs(_walk(120, seed=8))
+    tol = 2e-4
+    res = interpolate_constant_period(curve, 1200.0, 2.0, tol)
+    u, pts, feed = res["params"], res["samples"], res["feed_mm_min"]
+    assert u[0] == 0 and u[-1] == 1 and np.all(np.diff(u) > 0)
+    assert np.abs(pts - evaluate(curve, u)).max() < 1e-12
+    # independent, finer check of the chord error than the interpolator's own
+    assert chord_errors(curve, u, pts, n_check=9).max() <= tol * 1.001
+    assert res["stats"]["chord_error_max"] <= tol
+    # the feed is cut on the tight turns of the walk, never raised above the wish
+    assert feed.max() <= 1200.0 + 1e-9
+    assert res["stats"]["feed_limited_share"] > 0
+    # each step travels the commanded V*T (second-order Taylor step): fluctuation small
+    steps = np.linalg.norm(np.diff(pts, axis=0), axis=1)[:-1]
+    assert np.abs(steps / (feed[1:-1] / 60 * 0.002) - 1).max() < 0.02
+
+
+def test_constant_period_without_curvature_limit_runs_at_the_feed():
+    line = NurbsCurve(3, np.array([0, 0, 0, 0, 1, 1, 1, 1.0]), np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0.0]]))
+    res = interpolate_constant_period(line, 600.0, 4.0, 1e-3)
+    steps = np.linalg.norm(np.diff(res["samples"], axis=0), axis=1)
+    assert np.allclose(steps[:-1], 600 / 60 * 0.004, rtol=1e-9)
+    assert res["stats"]["duration_s"] == pytest.approx(3.0 / 10.0, abs=0.004 + 1e-12)
+    with pytest.raises(ParameterError):
+        interpolate_constant_period(line, -1.0, 4.0, 1e-3)
+
+
+def test_dwell_times_become_a_feed_schedule():
+    pts = _walk(60, seed=9)
+    curve, u = interpolate_nurbs(pts)
+    rng = np.random.default_rng(1)
+    times = rng.uniform(0.2, 0.8, len(pts))
+    res = interpolate_constant_period(curve, 600.0, 1.0, 1e-2, dwell_params=u, dwell_times=times)
+    assert res["stats"]["dwell_time_error_max"] < 0.03
+    assert res["stats"]["duration_s"] == pytest.approx(times.sum(), rel=0.01)
+
+
+def test_schedule_passes_make_up_for_curvature_slowdowns():
+    pts = _walk(80, seed=12)
+    curve, u = interpolate_nurbs(pts)
+    times = np.full(len(pts), 0.03)  # ~1000 mm/min wanted: the tight turns must be run slower
+    one = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
+                                      max_feed_mm_min=6000.0, schedule_passes=1)
+    four = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
+                                       max_feed_mm_min=6000.0, schedule_passes=4)
+    assert one["stats"]["dwell_time_error_max"] > 0.1
+    assert four["stats"]["dwell_time_error_max"] < 0.5 * one["stats"]["dwell_time_error_max"]
+    assert four["stats"]["chord_error_max"] <= 1e-3 and four["stats"]["feed_max_mm_min"] <= 6000.0 + 1e-9
+
+
+def test_smooth_stage_on_a_mapped_path():
+    cap = spherical_cap(n_r=12, n_phi=40)
+    path = serpentine_path(cap, 1.5, seed=11)
+    sp = map_to_surface(cap, path)
+    assert len(path.pieces) > 2  # several pieces: the tool lifts between them
+    tp = smooth(sp, surface=cap.surface, feed_mm_min=1200.0, period_ms=4.0, chord_tol_mm=1e-3)
+    # through every dwell point
+    assert np.abs(evaluate(tp.curve, tp.dwell_params) - sp.xyz).max() <= 1e-9
+    assert tp.stats["dwell_through_max"] <= 1e-9
+    assert np.all(np.diff(tp.dwell_params) > 0) and np.all(np.diff(tp.curve.knots) >= 0)
+    # samples: per piece, start and end on its first and last dwell point
+    sp_off = tp.stats["sample_pieces"]
+    for k in range(len(path.pieces) - 1):
+        s0, s1 = tp.samples[sp_off[k]], tp.samples[sp_off[k + 1] - 1]
+        assert np.linalg.norm(s0 - sp.xyz[path.pieces[k]]) < 1e-9
+        assert np.linalg.norm(s1 - sp.xyz[path.pieces[k + 1] - 1]) < 1e-9
+    assert tp.stats["chord_error_max"] <= 1e-3
+    # deviation figures measured against the mesh
+    assert 0 < tp.stats["surface_deviation_max"] < 0.5
+    assert tp.stats["lateral_overshoot_max"] >= 0
+    # default dwell times: uniform times the area weight
+    t = tp.dwell_times
+    assert np.allclose(t / t.mean(), sp.dwell_weight / sp.dwell_weight.mean())
+    assert tp.provenance.seed == 11 and tp.provenance.params["period_ms"] == 4.0
+    n = sample_normals(tp)
+    assert n.shape == tp.samples.shape and np.allclose(np.linalg.norm(n, axis=1), 1)
+
+
+def test_smooth_short_pieces_and_given_times():
+    pts = np.concatenate([_walk(8, seed=1), _walk(3, seed=2) + 20, _walk(2, seed=3) - 20])
+    sp = polyline_surface_path(pts, pieces=[0, 8, 11, 13])
+    times = np.full(len(pts), 0.05)
+    tp = smooth(sp, dwell_times=times, period_ms=1.0)
+    assert np.abs(evaluate(tp.curve, tp.dwell_params) - pts).max() <= 1e-9
+    assert tp.stats["dwell_time_source"] == "given"
+    with pytest.raises(ParameterError):
+        smooth(sp, dwell_times=times[:-1])
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 40), d=st.sampled_from([2, 3]), seed=st.integers(0, 10**6),
+       centripetal=st.booleans())
+def test_property_interpolation_passes_through_random_points(n, d, seed, centripetal):
+    pts = np.random.default_rng(seed).normal(scale=5.0, size=(n, d))
+    curve, u = interpolate_nurbs(pts, 3, "centripetal" if centripetal else "chord")
+    p = curve.degree
+    assert p == min(3, n - 1)
+    assert np.all(np.diff(curve.knots) >= 0)
+    assert np.all(curve.knots[: p + 1] == 0) and np.all(curve.knots[-(p + 1):] == 1)
+    assert np.abs(evaluate(curve, u) - pts).max() <= 1e-9
+
+
+def test_point_mesh_distance_on_a_plane():
+    from polishpath.smooth import point_mesh_distance
+    from polishpath.types import Surface
+    from test_mapping_helpers import grid_faces
+
+    x, y = np.meshgrid(np.linspace(0, 10, 11), np.linspace(0, 10, 11), indexing="ij")
+    plane = Surface(np.column_stack([x.ravel(), y.ravel(), np.zeros(121)]), grid_faces(11, 11))
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.uniform(1, 9, 50), rng.uniform(1, 9, 50), rng.uniform(-2, 2, 50)])
+    assert np.allclose(point_mesh_distance(pts, plane), np.abs(pts[:, 2]), atol=1e-12)
