@@ -1,0 +1,222 @@
+"""``plan()``: dwell grid + a registered pattern -> :class:`~polishpath.types.PlanarPath`."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from .._version import __version__
+from ..errors import ParameterError
+from ..types import PlanarPath, Provenance, Region
+from . import baselines
+from .dwell import DwellGrid, dwell_grid
+from .pseudorandom import pseudorandom_order
+
+
+@dataclass(frozen=True)
+class PatternResult:
+    """What a pattern function returns.
+
+    Attributes
+    ----------
+    uv : (N, 2) float64
+        Path points in order, mm.
+    ij : (N, 2) int64
+        Grid index of each point (nearest index when ``on_grid`` is False).
+    pieces : (K+1,) int64
+        Offsets of the continuous pieces.
+    on_grid : bool
+        True when every point is a dwell point of the grid.
+    stats : dict
+        Pattern-specific figures.
+    """
+
+    uv: np.ndarray
+    ij: np.ndarray
+    pieces: np.ndarray
+    on_grid: bool = True
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+#: A pattern: ``fn(grid, region, *, seed, start) -> PatternResult`` where
+#: ``start`` is the dwell-point number to begin with.
+PatternFn = Callable[..., PatternResult]
+
+
+def _on_grid(grid: DwellGrid, order: np.ndarray, pieces: np.ndarray, stats: dict) -> PatternResult:
+    return PatternResult(grid.uv[order], grid.ij[order], pieces, True, stats)
+
+
+def _pattern_pseudorandom(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    order, pieces, stats = pseudorandom_order(grid, seed=seed, start=start, **options)
+    return _on_grid(grid, order, pieces, stats)
+
+
+def _pattern_raster(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    order, pieces = baselines.clip_grid_sequence(grid, baselines.raster_sequence(grid))
+    return _on_grid(grid, order, pieces, {})
+
+
+def _pattern_rectangular(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    order, pieces = baselines.clip_grid_sequence(grid, baselines.rectangular_sequence(grid, grid.ij[start]), chords=False)
+    return _on_grid(grid, order, pieces, {})
+
+
+def _pattern_spiral(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    centre = grid.uv[start]
+    rmax = float(np.hypot(*(np.asarray(region.outer) - centre).T).max())
+    uv, pieces = baselines.archimedean_spiral(grid, centre, rmax)
+    return PatternResult(uv, baselines.nearest_ij(grid, uv), pieces, False, {})
+
+
+#: Registered patterns by name. Add a peer with :func:`register_pattern`.
+PATTERNS: dict[str, PatternFn] = {
+    "pseudorandom": _pattern_pseudorandom,
+    "raster": _pattern_raster,
+    "spiral": _pattern_spiral,
+    "rectangular": _pattern_rectangular,
+}
+
+#: Patterns that use the random seed.
+RANDOM_PATTERNS = {"pseudorandom"}
+
+
+def register_pattern(name: str, fn: PatternFn, *, random: bool = False) -> None:
+    """Register a path pattern under ``name`` (a later issue adds maze, fractal, Hilbert ...).
+
+    Parameters
+    ----------
+    name : str
+        Pattern name used by :func:`plan` and ``--pattern``.
+    fn : callable
+        ``fn(grid, region, *, seed, start, **options) -> PatternResult``.
+    random : bool
+        Whether the pattern uses ``seed`` (recorded in the provenance).
+    """
+    PATTERNS[name] = fn
+    if random:
+        RANDOM_PATTERNS.add(name)
+
+
+def nearest_dwell_point(grid: DwellGrid, point) -> int:
+    """Number of the dwell point nearest ``point`` (2,) mm."""
+    p = np.asarray(point, dtype=np.float64).reshape(2)
+    return int(np.argmin(np.hypot(grid.uv[:, 0] - p[0], grid.uv[:, 1] - p[1])))
+
+
+def plan(
+    region: Region,
+    spacing: float,
+    pattern: str = "pseudorandom",
+    *,
+    seed: int | None = 0,
+    start=None,
+    margin: float = 0.0,
+    origin=None,
+    rotation: float = 0.0,
+    **options,
+) -> PlanarPath:
+    """Plan a tool path through the dwell points of a region.
+
+    Parameters
+    ----------
+    region : Region
+        Planar region (the flattened surface's domain, or a polygon), mm.
+    spacing : float
+        Dwell-point spacing, mm.
+    pattern : str
+        One of :data:`PATTERNS`: ``"pseudorandom"`` (default), ``"raster"``,
+        ``"spiral"``, ``"rectangular"``.
+    seed : int or None
+        Random seed (random patterns); None draws one, which is recorded in
+        the provenance. Same seed, same path, bit for bit.
+    start : (2,) array_like, optional
+        Start near this point, mm; default the region's area centroid. The path
+        starts at the dwell point nearest to it.
+    margin : float
+        Keep dwell points and steps this far inside the boundary, mm.
+    origin : (2,) array_like, optional
+        Plane position of grid index (0, 0), mm; default centres the grid.
+    rotation : float
+        Grid rotation, radians.
+    **options
+        Passed to the pattern (pseudo-random: ``window``, ``backtrack``,
+        ``backtrack_budget``, ``max_blind``, ``shortest``, ``steer``,
+        ``max_kicks``, see
+        :func:`~polishpath.plan.pseudorandom.pseudorandom_order`).
+
+    Returns
+    -------
+    PlanarPath
+        ``uv`` (N, 2) mm, ``ij`` (N, 2), ``pieces``, ``unreached`` (dwell points
+        not visited, mm), ``n_inside``, provenance and ``stats`` (including
+        ``on_grid``, ``seconds``, ``grid_seconds``).
+
+    Raises
+    ------
+    ParameterError
+        Unknown pattern, bad spacing / margin / seed.
+    SpacingTooLargeError
+        Fewer than two dwell points fit.
+    """
+    if pattern not in PATTERNS:
+        raise ParameterError(
+            f"Unknown path pattern {pattern!r}.", f"Choose one of: {', '.join(sorted(PATTERNS))}."
+        )
+    if seed is None:
+        seed = int(np.random.SeedSequence().entropy % (2**63))
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
+        raise ParameterError(f"Seed must be a non-negative integer, got {seed!r}.")
+    seed = int(seed)
+    t0 = time.perf_counter()
+    grid = dwell_grid(region, spacing, margin=margin, origin=origin, rotation=rotation)
+    t1 = time.perf_counter()
+    start_pt = region.centroid if start is None else np.asarray(start, dtype=np.float64).reshape(2)
+    start_idx = nearest_dwell_point(grid, start_pt)
+    res = PATTERNS[pattern](grid, region, seed=seed, start=start_idx, **options)
+    t2 = time.perf_counter()
+
+    # dwell points not visited: by grid index (nearest index for off-grid patterns)
+    visited = np.zeros(grid.n, dtype=bool)
+    if len(res.ij):
+        H, W = (int(x) for x in grid.dense_shape)
+        i0, j0 = (int(x) for x in grid.dense_offset)
+        rel = res.ij - np.array([i0, j0])
+        inb = (rel[:, 0] >= 0) & (rel[:, 0] < W) & (rel[:, 1] >= 0) & (rel[:, 1] < H)
+        dense = rel[inb, 1] * W + rel[inb, 0]
+        pos = np.minimum(np.searchsorted(grid.dense_id, dense), grid.n - 1)
+        visited[pos[grid.dense_id[pos] == dense]] = True
+    stats = dict(res.stats)
+    stats.update(
+        on_grid=bool(res.on_grid),
+        n_pieces=int(len(res.pieces) - 1),
+        start_index=[int(x) for x in grid.ij[start_idx]],
+        grid_seconds=t1 - t0,
+        seconds=t2 - t0,
+    )
+    params = {
+        "spacing": float(spacing),
+        "margin": float(margin),
+        "origin": [float(x) for x in grid.origin],
+        "rotation": float(rotation),
+        "start": [float(x) for x in start_pt],
+        **{k: (v if isinstance(v, (int, float, str, bool)) else repr(v)) for k, v in options.items()},
+    }
+    return PlanarPath(
+        uv=res.uv,
+        ij=res.ij,
+        spacing=float(spacing),
+        origin=grid.origin,
+        rotation=float(rotation),
+        pattern=pattern,
+        pieces=res.pieces,
+        unreached=grid.uv[~visited],
+        n_inside=grid.n,
+        provenance=Provenance(
+            "plan", pattern, params, seed if pattern in RANDOM_PATTERNS else None, __version__
+        ),
+        stats=stats,
+    )

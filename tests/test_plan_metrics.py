@@ -1,0 +1,169 @@
+"""count_crossings against a brute-force exact checker; path_metrics on hand-built paths; baselines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from polishpath.plan import count_crossings, path_metrics, plan
+from polishpath.types import PlanarPath, Region
+
+
+def _orient(a, b, c):
+    return int(np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])))
+
+
+def _on_seg(a, b, p):
+    return min(a[0], b[0]) <= p[0] <= max(a[0], b[0]) and min(a[1], b[1]) <= p[1] <= max(a[1], b[1])
+
+
+def _intersect(p1, p2, p3, p4):
+    """Closed segments p1p2 and p3p4 share a point (exact on integers)."""
+    d1, d2 = _orient(p3, p4, p1), _orient(p3, p4, p2)
+    d3, d4 = _orient(p1, p2, p3), _orient(p1, p2, p4)
+    if d1 * d2 < 0 and d3 * d4 < 0:
+        return True
+    return (
+        (d1 == 0 and _on_seg(p3, p4, p1))
+        or (d2 == 0 and _on_seg(p3, p4, p2))
+        or (d3 == 0 and _on_seg(p1, p2, p3))
+        or (d4 == 0 and _on_seg(p1, p2, p4))
+    )
+
+
+def brute_crossings(pts, pieces):
+    segs = []
+    for k in range(len(pieces) - 1):
+        for i in range(pieces[k], pieces[k + 1] - 1):
+            segs.append((k, i))
+    n = 0
+    for x in range(len(segs)):
+        for y in range(x + 1, len(segs)):
+            (ka, i), (kb, j) = segs[x], segs[y]
+            a, b, c, d = pts[i], pts[i + 1], pts[j], pts[j + 1]
+            if ka == kb and j == i + 1:
+                # consecutive: only a collinear step back overlaps beyond the shared vertex
+                if _orient(a, b, d) == 0 and np.dot(np.subtract(b, a), np.subtract(d, c)) < 0:
+                    n += 1
+                continue
+            n += _intersect(a, b, c, d)
+    return n
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    pts=st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5)), min_size=2, max_size=14),
+    cut=st.integers(0, 13),
+)
+def test_count_crossings_matches_brute_force(pts, cut):
+    pts = [p for i, p in enumerate(pts) if i == 0 or p != pts[i - 1]]  # no zero-length steps
+    if len(pts) < 2:
+        return
+    cut = min(cut, len(pts) - 1)
+    pieces = [0, cut, len(pts)] if 0 < cut < len(pts) else [0, len(pts)]
+    arr = np.array(pts, dtype=float)
+    assert count_crossings(arr, pieces) == brute_crossings(pts, pieces)
+
+
+def test_count_crossings_simple_cases():
+    x = np.array([[0, 0], [1, 1], [1, 0], [0, 1]], float)  # the two diagonals of one cell
+    assert count_crossings(x) == 1
+    assert count_crossings(x, [0, 2, 4]) == 1  # pieces cross too
+    assert count_crossings(x, [0, 2, 3, 4]) == 0  # single points: nothing to cross
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    assert count_crossings(square) == 0
+    back = np.array([[0, 0], [1, 0], [0.5, 0]], float)  # step straight back
+    assert count_crossings(back) == 1
+    revisit = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0, 0], [-1, 0]], float)
+    assert count_crossings(revisit) >= 1
+
+
+def test_path_metrics_hand_made():
+    ij = np.array([[0, 0], [1, 0], [2, 0], [2, 1], [1, 1]])
+    p = PlanarPath(uv=ij * 2.0, ij=ij, spacing=2.0, n_inside=6)
+    m = path_metrics(p)
+    assert m["n_points"] == 5 and m["n_pieces"] == 1
+    assert m["coverage"] == pytest.approx(5 / 6)
+    assert m["step_mean"] == pytest.approx(2.0) and m["step_max"] == pytest.approx(2.0)
+    assert m["direction_shares"]["E"] == pytest.approx(0.5)
+    assert m["direction_shares"]["N"] == pytest.approx(0.25)
+    assert m["direction_shares"]["W"] == pytest.approx(0.25)
+    assert m["directions_used"] == 3
+    assert m["turn_histogram"]["0"] == pytest.approx(1 / 3)
+    assert m["turn_histogram"]["90"] == pytest.approx(2 / 3)
+    assert m["longest_straight_run"] == 2 and m["longest_straight_mm"] == pytest.approx(4.0)
+    assert m["crossings"] == 0
+
+
+def test_largest_empty_disc_sees_a_gap():
+    t = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    region = Region(np.c_[10 * np.cos(t), 10 * np.sin(t)])
+    full = plan(region, 0.5, seed=1)
+    m = path_metrics(full, region)
+    assert m["largest_empty_disc"] <= 0.5 * np.sqrt(2)  # full coverage: no gap wider than a cell
+    keep = np.hypot(*full.uv.T) > 3.0  # drop the points near the centre: a 3 mm hole
+    holed = PlanarPath(uv=full.uv[keep], ij=full.ij[keep], spacing=0.5, pieces=[0, int(keep.sum())])
+    m2 = path_metrics(holed, region)
+    assert m2["largest_empty_disc"] >= 2.9
+
+
+# ---------------------------------------------------------------- baselines
+
+
+@pytest.fixture(scope="module")
+def star_region():
+    t = np.linspace(0, 2 * np.pi, 10, endpoint=False)
+    rad = np.where(np.arange(10) % 2 == 0, 12.0, 5.0)
+    return Region(np.c_[rad * np.cos(t), rad * np.sin(t)], (np.c_[np.cos(t[::-1]), np.sin(t[::-1])] * 1.5,))
+
+
+def _steps_inside(path, region):
+    poly = shapely.Polygon(region.outer, list(region.holes))
+    same = np.ones(path.n_points - 1, dtype=bool)
+    same[np.asarray(path.pieces[1:-1]) - 1] = False
+    k = np.flatnonzero(same)
+    lines = shapely.linestrings(np.stack([path.uv[k], path.uv[k + 1]], axis=1))
+    assert shapely.intersects_xy(poly, path.uv[:, 0], path.uv[:, 1]).all()
+    assert shapely.covers(poly, lines).all()
+    return same
+
+
+def test_raster_baseline(star_region):
+    p = plan(star_region, 0.5, "raster", rotation=0.4)
+    m = path_metrics(p)
+    assert m["coverage"] == 1.0 and len(p.unreached) == 0 and m["n_points"] == p.n_inside
+    assert m["crossings"] == 0
+    sh = m["direction_shares"]
+    assert sh["E"] + sh["W"] > 0.8 and m["directions_used"] <= 4  # periodic: two directions
+    _steps_inside(p, star_region)
+    assert p.provenance.seed is None and p.stats["on_grid"]
+
+
+def test_rectangular_baseline(star_region):
+    p = plan(star_region, 0.5, "rectangular")
+    m = path_metrics(p)
+    assert m["coverage"] == 1.0 and m["crossings"] == 0
+    same = _steps_inside(p, star_region)
+    assert np.abs(np.diff(p.ij, axis=0))[same].max() == 1  # 8-neighbour steps only
+    sh = m["direction_shares"]
+    assert sh["E"] + sh["N"] + sh["W"] + sh["S"] > 0.9  # four directions
+
+
+def test_spiral_baseline(star_region):
+    p = plan(star_region, 0.5, "spiral")
+    m = path_metrics(p)
+    assert p.stats["on_grid"] is False
+    same = _steps_inside(p, star_region)
+    steps = np.hypot(*np.diff(p.uv, axis=0).T)[same]
+    # constant arc step = spacing: chords are a little shorter on the first tight turn
+    assert steps.max() <= 0.5 + 1e-9 and np.mean(np.abs(steps - 0.5) < 0.01) > 0.95
+    assert m["crossings"] == 0
+    i, j = np.array(p.stats["start_index"]) * p.spacing
+    c, s = np.cos(p.rotation), np.sin(p.rotation)
+    centre = p.origin + np.array([c * i - s * j, s * i + c * j])
+    r = np.hypot(*(p.uv - centre).T)
+    assert np.all(np.diff(r) > 0)  # an Archimedean spiral runs outward from its centre
+    assert 0.6 < m["coverage"] <= 1.0
