@@ -5,9 +5,16 @@ The data flows one way, one subpackage per stage::
     surfaces -> flatten -> plan -> mapping -> smooth -> export / simulate / report
 
 >>> import polishpath
->>> job = polishpath.run(surface="hemisphere:triangles=5000", spacing=1.0, seed=7)  # doctest: +SKIP
+>>> job = polishpath.plan(surface="hemisphere:triangles=5000", spacing=1.0, seed=7)  # doctest: +SKIP
 >>> job.save("out")  # doctest: +SKIP
+
+``polishpath.plan(...)`` (also ``polishpath.run``) runs the whole job like the
+``polishpath plan`` command; the stages are importable one by one
+(``polishpath.surfaces``, ``.flatten``, ``.plan``, ``.mapping``, ``.smooth``,
+``.export``, ``.simulate``, ``.psd``, ``.report``).
 """
+
+import importlib as _importlib
 
 from ._version import __version__
 from .errors import PolishPathError
@@ -26,6 +33,16 @@ def load_surface(spec, **kw):
     from .surfaces import load_surface as _load
 
     return _load(spec, **kw)
+
+
+_STAGES = ("surfaces", "flatten", "plan", "mapping", "smooth", "export", "simulate", "psd", "report", "pipeline")
+
+
+def __getattr__(name):
+    # stages load on first use, so `import polishpath` stays light
+    if name in _STAGES:
+        return _importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'polishpath' has no attribute {name!r}")
 
 
 __all__ = [
