@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
-CORE = {"types", "errors", "meshops", "progress", "_version"}
+CORE = {"types", "errors", "meshops", "progress", "fileio", "_version"}
 ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report"]
 # the planner and flattening do not need each other's code either way: both take plain data
 INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces")}

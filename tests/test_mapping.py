@@ -16,7 +16,7 @@ from polishpath.mapping import (
     projection_flattening,
     surface_step_stats,
 )
-from polishpath.types import Flattening, PlanarPath, Provenance, Surface
+from polishpath.types import Flattening, PlanarPath, Surface
 from test_mapping_helpers import cylinder_patch, grid_faces, serpentine_path, spherical_cap
 
 SQ2 = 2**0.5

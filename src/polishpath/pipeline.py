@@ -8,6 +8,7 @@ stage's result; :meth:`Job.save` writes the machine files, ``summary.json``,
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import datetime
 import math
@@ -15,7 +16,6 @@ import os
 import platform
 import random
 import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ import numpy as np
 from . import progress
 from ._version import __version__
 from .errors import ParameterError, SpacingTooLargeError, SpecError
+from .fileio import atomic_open, jsonable
 from .types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
 
 
@@ -292,67 +293,17 @@ def _save_arrays(job: Job, path: Path) -> None:
     _atomic_write_bytes(path, w)
 
 
-def _mkstemp_public(path: Path) -> tuple[int, str]:
-    """A temp file beside ``path`` with the permissions a normal ``open`` would give (umask), not 0600."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    return fd, tmp
-
-
 def _atomic_write_text(path: Path, writer) -> None:
-    fd, tmp = _mkstemp_public(path)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            writer(fh)
-        os.replace(tmp, path)
-    except BaseException:
-        with _suppress():
-            os.unlink(tmp)
-        raise
+    with atomic_open(path, "w") as fh:
+        writer(fh)
 
 
 def _atomic_write_bytes(path: Path, writer) -> None:
-    fd, tmp = _mkstemp_public(path)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            writer(fh)
-        os.replace(tmp, path)
-    except BaseException:
-        with _suppress():
-            os.unlink(tmp)
-        raise
+    with atomic_open(path, "wb") as fh:
+        writer(fh)
 
 
-class _suppress:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return exc[0] is not None and issubclass(exc[0], OSError)
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.floating,)):
-        x = float(x)
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    if isinstance(x, Path):
-        return str(x)
-    if callable(x):
-        return None
-    return x
+_jsonable = jsonable
 
 
 def flatten_surface(surface: Surface, method: str) -> Flattening:
@@ -441,7 +392,7 @@ def rebuild_report(out_dir: str | Path) -> dict[str, Path]:
 
 def remove_partial(out_dir: Path) -> None:  # pragma: no cover - used on Ctrl-C
     for p in Path(out_dir).glob(".*.tmp"):
-        with _suppress():
+        with contextlib.suppress(OSError):
             p.unlink()
     if Path(out_dir).exists() and not any(Path(out_dir).iterdir()):
         shutil.rmtree(out_dir, ignore_errors=True)

@@ -20,14 +20,13 @@ import csv
 import io
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
 
 from .._version import __version__
+from ..fileio import atomic_open, jsonable
 from ..errors import ExportError, ParameterError
 from ..types import SurfacePath, ToolPath
 
@@ -58,20 +57,8 @@ def _text_out(file) -> Iterator[io.TextIOBase]:
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise ExportError(f"Cannot write {path}: folder {folder} does not exist.", "Create the folder first.")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    mask = os.umask(0)  # mkstemp makes 0600 files: give the permissions a plain open() would
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    try:
-        with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_open(path, "w") as fh:
+        yield fh
 
 
 @contextlib.contextmanager
@@ -398,35 +385,12 @@ def write_gcode(
 # --------------------------------------------------------------------------------------
 
 
-def _jsonable(o):
-    if isinstance(o, dict):
-        return {str(k): _jsonable(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return _jsonable(o.tolist())
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, (float, np.floating)):
-        v = float(o)
-        return v if math.isfinite(v) else None
-    if isinstance(o, (np.bool_,)):
-        return bool(o)
-    if isinstance(o, Path):
-        return str(o)
-    if o is None or isinstance(o, (str, int, bool)):
-        return o
-    if hasattr(o, "to_dict"):
-        return _jsonable(o.to_dict())
-    return str(o)
-
-
 def write_summary_json(summary: dict, file) -> None:
     """Write a summary dict as indented JSON (numpy values converted; NaN / inf -> null)."""
     if not isinstance(summary, dict):
         raise ExportError(f"write_summary_json needs a dict, got {type(summary).__name__}.")
     with _text_out(file) as fh:
-        json.dump(_jsonable(summary), fh, indent=2, sort_keys=False, allow_nan=False)
+        json.dump(jsonable(summary), fh, indent=2, sort_keys=False, allow_nan=False)
         fh.write("\n")
 
 
