@@ -310,10 +310,14 @@ def simulate_cmd(
     output: Path = typer.Option(Path("out-simulate"), "-o", "--output", help="Output folder; a `polishpath plan` run folder gets a simulation/ subfolder and its report is rebuilt."),
     patch: float = typer.Option(20.0, "--patch", help="Side of the simulated square patch at the region's centre, mm."),
     dx: float = typer.Option(0.005, "--dx", help="Simulation pixel pitch, mm (5 um resolves 100 1/mm)."),
-    fwhm: float = typer.Option(1.0, "--fwhm", help="Gaussian tool influence function, full width at half maximum, mm."),
-    rate: float = typer.Option(5.0, "--rate", help="Peak removal rate of the tool influence function, nm/s."),
+    rpm: float = typer.Option(230.0, "--rpm", help="Tool spin, 1/min (the paper's sponge: 230)."),
+    radius: float = typer.Option(2.0, "--radius", help="Tool contact radius, mm."),
+    pressure: str = typer.Option("parabolic", "--pressure", help="Contact pressure profile: parabolic, hertz, uniform, gaussian."),
+    feed: float = typer.Option(600.0, "--feed", help="Nominal feed, mm/min."),
+    fwhm: Optional[float] = typer.Option(None, "--fwhm", help="Use a plain Gaussian tool influence function of this FWHM (mm) instead of the rotating tool."),
+    rate: float = typer.Option(5.0, "--rate", help="Peak removal rate of the Gaussian TIF (with --fwhm), nm/s."),
     depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (sets the dwell time per point)."),
-    time_model: str = typer.Option("segments", "--time-model", help="'segments' (continuous motion) or 'points' (stop and dwell)."),
+    time_model: str = typer.Option("segments", "--time-model", help="'segments' (continuous motion), 'points' (stop and dwell) or 'machine' (NURBS at the interpolation period)."),
     method: str = typer.Option("mabf", "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection."),
     units: Optional[str] = UNITS_OPT,
     scale: Optional[float] = SCALE_OPT,
@@ -324,7 +328,8 @@ def simulate_cmd(
     """Simulate polishing with each path pattern and compare the PSD before and after (the paper's Table 4).
 
     Plans every pattern on the flattened surface, simulates Preston removal with
-    the same tool and process on a patch of the part, and prints before / after
+    the same tool and process on a patch of the part (by default a sponge
+    spinning at 230 rpm whose footprint leans with the feed direction), and prints before / after
     band-average PSD (1e3-1e5 1/m) and the suppression ratio; writes psd.png,
     residual maps, table.txt and results.json. The model's assumptions are in
     docs/simulation.md.
@@ -334,15 +339,14 @@ def simulate_cmd(
     from . import progress
     from .flatten import boundary_region
     from .pipeline import flatten_surface
-    from .simulate import compare_patterns, gaussian_tif
+    from .errors import ParameterError
+    from .simulate import compare_patterns, gaussian_tif, rotating_tool_tif
     from .surfaces import load_surface
 
     _quiet(quiet, json_out)
     with _guard(output):
         pats = [p.strip() for p in patterns.split(",") if p.strip()]
         if not pats:
-            from .errors import ParameterError
-
             raise ParameterError("--patterns is empty.", "Name at least one pattern, e.g. pseudorandom,raster.")
         with progress.stage("reading surface"):
             s = load_surface(surface, units=units, scale=scale, component=component)
@@ -351,8 +355,17 @@ def simulate_cmd(
         run_dir = output
         sim_dir = output / "simulation" if (output / "summary.json").exists() else output
         with progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):
-            res = compare_patterns(region, pats, spacing, seed, dx_mm=dx, tif=gaussian_tif(rate, fwhm_mm=fwhm),
-                                   removal_depth_nm=depth, time_model=time_model, patch_mm=patch, out_dir=sim_dir)
+            tif = (gaussian_tif(rate, fwhm_mm=fwhm) if fwhm is not None
+                   else rotating_tool_tif(rpm, radius, pressure, feed_mm_min=feed))
+            try:
+                res = compare_patterns(region, pats, spacing, seed, dx_mm=dx, tif=tif,
+                                       removal_depth_nm=depth, time_model=time_model, patch_mm=patch, out_dir=sim_dir)
+            except ParameterError as exc:
+                if "evaluation window" in exc.message:
+                    raise ParameterError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
+                                         "inside the patch, away from its edges by the tool's reach.",
+                                         "Use --patch 10 or larger.") from None
+                raise
         if sim_dir != output:
             from .pipeline import rebuild_report
 

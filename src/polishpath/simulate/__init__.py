@@ -9,6 +9,7 @@ from .compare import (
     PAPER_TABLE4,
     compare_paths,
     compare_patterns,
+    default_tif,
     evaluate_result,
     format_table,
     plot_psds,
@@ -17,6 +18,8 @@ from .compare import (
 from .paths import random_walk_path, raster_path, rectangular_path, spiral_path
 from .removal import (
     ProcessNoise,
+    path_clock,
+    path_motion_samples,
     SimulationResult,
     Smoothing,
     dwell_from_feed,
@@ -26,14 +29,16 @@ from .removal import (
     simulate_removal,
     smooth_surface,
 )
+from .rotating import RotatingBasis, RotatingToolTIF, rotating_tool_tif
 from .tif import TIF, DirectionalTIF, gaussian_tif, measured_tif, tilted_tool_tif
 from .workpiece import Workpiece, flat_workpiece, synthetic_workpiece, workpiece_from_measurement
 
 __all__ = [
     "DEFAULT_NOISE", "DEFAULT_SMOOTHING", "PAPER_TABLE4", "DirectionalTIF", "ProcessNoise", "SimulationResult",
-    "Smoothing", "TIF", "Workpiece", "compare_paths", "compare_patterns", "dwell_from_feed", "evaluate_result",
+    "Smoothing", "TIF", "Workpiece", "compare_paths", "compare_patterns", "default_tif", "dwell_from_feed", "evaluate_result",
     "flat_workpiece", "format_table", "gaussian_tif", "measured_tif", "path_time_samples", "plot_psds",
     "process_noise_factor", "profile_psd", "random_walk_path", "raster_path", "rasterize_time",
     "rectangular_path", "simulate_removal", "smooth_surface", "spiral_path", "synthetic_workpiece",
-    "tilted_tool_tif", "workpiece_from_measurement",
+    "tilted_tool_tif", "workpiece_from_measurement", "RotatingBasis", "RotatingToolTIF", "rotating_tool_tif",
+    "path_clock", "path_motion_samples",
 ]

@@ -1,0 +1,656 @@
+"""Preston removal along a tool path: time density rasterised, convolved with the TIF by FFT.
+
+Model (see docs/simulation.md for what it includes and leaves out):
+
+* Preston: removal rate = k_p * pressure * velocity, folded into the TIF
+  (nm/s at each offset from the tool centre), so the depth removed at x is
+  ``integral TIF(x - p(t)) dt`` along the path ``p(t)``.
+* The time the tool spends is given per dwell point; dwell point k owns the
+  path from the middle of the segment before it to the middle of the segment
+  after it, and its time is spread uniformly along that stretch (the tool
+  moves continuously; the machine changes feed to honour the dwell times).
+* The time density (s/mm^2) is rasterised by bilinear splatting of fine path
+  samples (exactly mass-conserving) and convolved with the TIF by FFT.
+* Optional process noise multiplies the removal rate along the path by
+  ``1 + rms * eps(s)``, ``eps`` a unit Gaussian process of arc length ``s``
+  with a Gaussian correlation of length ``correlation_length_mm``.
+* Optional smoothing (a compliant tool removes more from peaks than from
+  valleys): error components shorter than the tool decay exponentially with
+  the depth removed (a linearised form of the parametric smoothing model of
+  Tuell, Burge & Anderson 2002).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..types import Provenance
+from .rotating import RotatingToolTIF
+from .tif import TIF, DirectionalTIF
+from .workpiece import Workpiece
+
+
+@dataclass(frozen=True)
+class ProcessNoise:
+    """Removal-rate fluctuation along the path.
+
+    Attributes
+    ----------
+    rms : float
+        Relative RMS of the removal rate (0.05 = 5 %).
+    correlation_length_mm : float
+        Arc length over which the fluctuation stays correlated, mm (standard
+        deviation of its Gaussian autocorrelation). Used when
+        ``correlation_time_s`` is None.
+    correlation_time_s : float, optional
+        Correlate the fluctuation in machining *time* instead (s): the rate
+        drifts with the clock (slurry supply, pad wear), whatever the path does.
+
+    Both are correlations along the path (in the order the tool runs it),
+    never in space: two places polished at very different times get
+    independent rates even when they are neighbours.
+    """
+
+    rms: float = 0.05
+    correlation_length_mm: float = 2.0
+    correlation_time_s: float | None = None
+
+    def __post_init__(self):
+        if not (0 <= self.rms < 1):
+            raise ParameterError(f"noise rms must be a fraction in [0, 1), got {self.rms}.")
+        if not self.correlation_length_mm > 0:
+            raise ParameterError(f"noise correlation_length_mm must be > 0, got {self.correlation_length_mm}.")
+        if self.correlation_time_s is not None and not self.correlation_time_s > 0:
+            raise ParameterError(f"noise correlation_time_s must be > 0 s, got {self.correlation_time_s}.")
+
+
+@dataclass(frozen=True)
+class Smoothing:
+    """Smoothing of existing error by a compliant tool.
+
+    A component of spatial frequency f decays by ``exp(-D / depth_nm * H(f))``
+    where D is the mean depth removed and ``H(f) = 1 - exp(-(f length_mm)^2)``
+    (no smoothing of errors much longer than the tool, full rate for much
+    shorter ones).
+
+    Attributes
+    ----------
+    depth_nm : float
+        Removal depth that reduces short-wavelength error by a factor e, nm.
+    length_mm : float
+        Smoothing length of the tool (about its contact size), mm.
+    """
+
+    depth_nm: float = 100.0
+    length_mm: float = 1.0
+
+    def __post_init__(self):
+        if not (self.depth_nm > 0 and self.length_mm > 0):
+            raise ParameterError("smoothing depth_nm and length_mm must be positive.")
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Outcome of one simulated polishing run on a workpiece patch.
+
+    Attributes
+    ----------
+    before_nm : (Ny, Nx) float32
+        Initial surface error, nm.
+    after_nm : (Ny, Nx) float32
+        Surface error after polishing, nm (``smoothed(before) - removal``).
+    removal_nm : (Ny, Nx) float32
+        Depth removed, nm.
+    time_density_s_mm2 : (Ny, Nx) float32
+        Tool-centre time per area, s/mm^2.
+    dx_mm : float
+        Pixel pitch, mm.
+    origin_mm : (2,) float64
+        (x, y) of pixel [0, 0], mm.
+    provenance : Provenance
+        stage "simulate", method "preston-fft", all parameters and the seed.
+    stats : dict
+        ``total_time_s``, ``time_on_grid_s``, ``removed_volume_nm_mm2``,
+        ``expected_volume_nm_mm2``, ``mean_depth_nm``, ``n_samples``, timings.
+    """
+
+    before_nm: np.ndarray
+    after_nm: np.ndarray
+    removal_nm: np.ndarray
+    time_density_s_mm2: np.ndarray
+    dx_mm: float
+    origin_mm: np.ndarray
+    provenance: Provenance
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+def dwell_from_feed(path_xy, feed_mm_min: float) -> np.ndarray:
+    """Dwell times (N,) s that make the tool move at a constant feed.
+
+    Point k gets half of each adjacent segment length divided by the feed.
+
+    Parameters
+    ----------
+    path_xy : (N, 2) mm
+    feed_mm_min : float
+        Feed, mm/min.
+    """
+    p = np.asarray(path_xy, dtype=np.float64)
+    if not feed_mm_min > 0:
+        raise ParameterError(f"feed_mm_min must be positive, got {feed_mm_min}.")
+    L = np.hypot(*np.diff(p, axis=0).T)
+    own = np.zeros(len(p))
+    own[:-1] += L / 2
+    own[1:] += L / 2
+    return own / (feed_mm_min / 60.0)
+
+
+def path_time_samples(path_xy, dwell_s, step_mm: float, pieces=None, time_model: str = "segments"):
+    """Fine samples along a path, each carrying the tool time it stands for.
+
+    See :func:`path_motion_samples` (which also returns each sample's length);
+    this returns ``(xy, t, heading, arc)``.
+    """
+    return path_motion_samples(path_xy, dwell_s, step_mm, pieces, time_model)[:4]
+
+
+def path_motion_samples(path_xy, dwell_s, step_mm: float, pieces=None, time_model: str = "segments",
+                        machine: dict | None = None):
+    """Fine samples along a path, each carrying the tool time it stands for.
+
+    Dwell point k owns the path from the middle of segment (k-1, k) to the
+    middle of segment (k, k+1); its time ``dwell_s[k]`` is spread uniformly
+    along that stretch. A point owning no length (a lone point) is one sample.
+
+    Parameters
+    ----------
+    path_xy : (N, 2) float
+        Dwell points in path order, mm.
+    dwell_s : (N,) float
+        Time per dwell point, s.
+    step_mm : float
+        Largest distance between samples, mm (half a pixel is plenty).
+    pieces : (K+1,) int, optional
+        Offsets of continuous pieces (the tool lifts between them); default one piece.
+    time_model : {"segments", "points", "machine"}
+        ``"segments"``: the time is spread along the path as described above
+        (continuous motion). ``"points"``: all the time is spent at the dwell
+        points themselves (stop-and-dwell; the moves take no time).
+        ``"machine"``: the path the machine runs: a cubic NURBS through the
+        dwell points of each piece, sampled at a constant interpolation period
+        with the feed schedule that honours the dwell times within the
+        curvature (chord-error) limit (:mod:`polishpath.smooth`); every
+        period is one sample interval of equal time.
+    machine : dict, optional
+        ``"machine"`` options: ``period_ms`` (4), ``chord_tol_mm`` (0.001),
+        ``max_feed_factor`` (5: machine feed limit as a multiple of the mean feed),
+        ``schedule_passes`` (3).
+
+    Returns
+    -------
+    xy : (M, 2) float64
+        Sample positions, mm.
+    t : (M,) float64
+        Time of each sample, s (``t.sum() == dwell_s.sum()``; ``"machine"``:
+        the time the interpolator takes, which exceeds the wish where the
+        curvature limit slows the tool).
+    heading : (M,) float64
+        Direction of travel, radians from +x.
+    arc : (M,) float64
+        Arc length along the whole path, mm.
+    length : (M,) float64
+        Path length each sample stands for, mm (``length / t`` is the feed speed; 0 when the tool stands still).
+    info : dict
+        ``"machine"``: the interpolator's figures; else empty.
+    """
+    p = np.asarray(path_xy, dtype=np.float64)
+    t = np.asarray(dwell_s, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2 or len(p) == 0:
+        raise ParameterError(f"path_xy must be an (N, 2) array in mm, got shape {p.shape}.")
+    if t.shape != (len(p),):
+        raise ParameterError(f"dwell_s must have one time per path point ({len(p)}), got shape {t.shape}.")
+    if not (np.isfinite(p).all() and np.isfinite(t).all()) or (t < 0).any():
+        raise ParameterError("path_xy and dwell_s must be finite and dwell times >= 0 s.")
+    if not step_mm > 0:
+        raise ParameterError(f"step_mm must be positive, got {step_mm}.")
+    pieces = np.asarray([0, len(p)] if pieces is None else pieces, dtype=np.int64)
+    if time_model not in ("segments", "points", "machine"):
+        raise ParameterError(f"unknown time_model {time_model!r}.", "Use 'segments', 'points' or 'machine'.")
+    if time_model == "points":
+        d = np.diff(p, axis=0)
+        L = np.hypot(d[:, 0], d[:, 1])
+        head = np.append(np.arctan2(d[:, 1], d[:, 0]), 0.0) if len(p) > 1 else np.zeros(1)
+        return p.copy(), t.copy(), head, np.concatenate([[0.0], np.cumsum(L)]), np.zeros(len(p)), {}
+    if time_model == "machine":
+        return _machine_samples(p, t, step_mm, pieces, **(machine or {}))
+    out_xy, out_t, out_h, out_s, out_l = [], [], [], [], []
+    s0 = 0.0
+    for a, b in zip(pieces[:-1], pieces[1:]):
+        P, T = p[a:b], t[a:b]
+        if len(P) == 0:
+            continue
+        d = np.diff(P, axis=0)
+        L = np.hypot(d[:, 0], d[:, 1])
+        own = np.zeros(len(P))
+        own[:-1] += L / 2
+        own[1:] += L / 2
+        lone = own <= 0
+        if lone.any():
+            out_xy.append(P[lone])
+            out_t.append(T[lone])
+            out_h.append(np.zeros(lone.sum()))
+            out_s.append(np.full(lone.sum(), s0))
+            out_l.append(np.zeros(lone.sum()))
+        if len(L):
+            cum = np.concatenate([[0.0], np.cumsum(L)])
+            head = np.arctan2(d[:, 1], d[:, 0])
+            m = np.maximum(1, np.ceil(L / 2 / step_mm).astype(np.int64))
+            seg = np.repeat(np.arange(len(L)), m)
+            i = np.arange(seg.size) - np.repeat(np.cumsum(m) - m, m)
+            frac = (i + 0.5) / np.repeat(m, m) * 0.5
+            with np.errstate(invalid="ignore", divide="ignore"):
+                w_first = np.where(own[:-1] > 0, T[:-1] * L / (2 * m * own[:-1]), 0.0)
+                w_second = np.where(own[1:] > 0, T[1:] * L / (2 * m * own[1:]), 0.0)
+            for u, w in ((frac, w_first), (0.5 + frac, w_second)):
+                out_xy.append(P[seg] + u[:, None] * d[seg])
+                out_t.append(w[seg])
+                out_h.append(head[seg])
+                out_s.append(s0 + cum[seg] + u * L[seg])
+                out_l.append((L / (2 * m))[seg])
+            s0 += cum[-1]
+    return (np.concatenate(out_xy), np.concatenate(out_t), np.concatenate(out_h), np.concatenate(out_s),
+            np.concatenate(out_l), {})
+
+
+def _machine_samples(p: np.ndarray, t: np.ndarray, step_mm: float, pieces, *, period_ms: float | None = None,
+                     chord_tol_mm: float | None = None, max_feed_factor: float = 5.0, schedule_passes: int = 3):
+    """Samples of the NURBS-smoothed path at a constant interpolation period (see :func:`path_motion_samples`)."""
+    try:
+        from ..smooth import DEFAULT_CHORD_TOL_MM, DEFAULT_PERIOD_MS, interpolate_constant_period, interpolate_nurbs
+    except ImportError as exc:  # pragma: no cover - the smoothing stage is written in parallel
+        raise ParameterError("time_model='machine' needs polishpath.smooth (interpolate_nurbs, "
+                             "interpolate_constant_period).", "Use time_model='segments'.") from exc
+    period_ms = DEFAULT_PERIOD_MS if period_ms is None else float(period_ms)
+    chord_tol_mm = DEFAULT_CHORD_TOL_MM if chord_tol_mm is None else float(chord_tol_mm)
+    T = period_ms / 1000.0
+    pieces = np.asarray([0, len(p)] if pieces is None else pieces, dtype=np.int64)
+    out_xy, out_t, out_h, out_s, out_l = [], [], [], [], []
+    s0 = 0.0
+    info = {"period_ms": period_ms, "chord_tol_mm": chord_tol_mm, "max_feed_factor": max_feed_factor,
+            "wanted_time_s": float(t.sum()), "n_pieces": int(len(pieces) - 1), "dwell_time_error_max": 0.0,
+            "feed_min_mm_min": np.inf, "feed_max_mm_min": 0.0, "chord_error_max_mm": 0.0, "n_interp_samples": 0}
+    for a, b in zip(pieces[:-1], pieces[1:]):
+        P, Tw = p[a:b], t[a:b]
+        keep = np.ones(len(P), bool)
+        if len(P) > 1:  # merge repeated consecutive points (their times add up)
+            same = np.all(np.diff(P, axis=0) == 0, axis=1)
+            for i in np.flatnonzero(same)[::-1]:
+                Tw = Tw.copy()
+                Tw[i] += Tw[i + 1]
+                keep[i + 1] = False
+            P, Tw = P[keep], Tw[keep]
+        if len(P) < 2 or Tw.sum() <= 0:
+            out_xy.append(P)
+            out_t.append(Tw)
+            out_h.append(np.zeros(len(P)))
+            out_s.append(np.full(len(P), s0))
+            out_l.append(np.zeros(len(P)))
+            continue
+        curve, u = interpolate_nurbs(P, 3)
+        Tw = np.maximum(Tw, 1e-9 * max(Tw.max(), 1e-12))
+        L = float(np.hypot(*np.diff(P, axis=0).T).sum())
+        mean_feed = 60.0 * L / Tw.sum()
+        res = interpolate_constant_period(curve, mean_feed, period_ms, chord_tol_mm, dwell_params=u, dwell_times=Tw,
+                                          max_feed_mm_min=max_feed_factor * mean_feed,
+                                          schedule_passes=schedule_passes)
+        q = np.asarray(res["samples"])[:, :2]
+        st = res["stats"]
+        info["dwell_time_error_max"] = max(info["dwell_time_error_max"], st.get("dwell_time_error_max", 0.0))
+        info["feed_min_mm_min"] = min(info["feed_min_mm_min"], st["feed_min_mm_min"])
+        info["feed_max_mm_min"] = max(info["feed_max_mm_min"], st["feed_max_mm_min"])
+        info["chord_error_max_mm"] = max(info["chord_error_max_mm"], st["chord_error_max"])
+        info["n_interp_samples"] += int(len(q))
+        d = np.diff(q, axis=0)
+        Ls = np.hypot(d[:, 0], d[:, 1])
+        m = np.maximum(1, np.ceil(Ls / step_mm).astype(np.int64))
+        seg = np.repeat(np.arange(len(Ls)), m)
+        i = np.arange(seg.size) - np.repeat(np.cumsum(m) - m, m)
+        frac = (i + 0.5) / np.repeat(m, m)
+        cum = np.concatenate([[0.0], np.cumsum(Ls)])
+        out_xy.append(q[seg] + frac[:, None] * d[seg])
+        out_t.append((T / m)[seg])
+        out_h.append(np.arctan2(d[:, 1], d[:, 0])[seg])
+        out_s.append(s0 + cum[seg] + frac * Ls[seg])
+        out_l.append((Ls / m)[seg])
+        s0 += cum[-1]
+    info["machine_time_s"] = float(sum(x.sum() for x in out_t))
+    if not np.isfinite(info["feed_min_mm_min"]):
+        info["feed_min_mm_min"] = 0.0
+    return (np.concatenate(out_xy), np.concatenate(out_t), np.concatenate(out_h), np.concatenate(out_s),
+            np.concatenate(out_l), info)
+
+
+def path_clock(arc_mm: np.ndarray, t_s: np.ndarray) -> np.ndarray:
+    """Machining time (s) at each sample: samples in path order (by arc length), time at the sample's middle."""
+    order = np.argsort(arc_mm, kind="stable")
+    c = np.empty(len(t_s))
+    c[order] = np.cumsum(t_s[order]) - 0.5 * t_s[order]
+    return c
+
+
+def process_noise_factor(arc_mm: np.ndarray, noise: ProcessNoise, seed: int, clock_s: np.ndarray | None = None
+                         ) -> np.ndarray:
+    """Removal-rate multiplier ``max(0, 1 + rms * eps)`` along the path.
+
+    ``eps`` is Gaussian-filtered white noise on a grid of 1/8 of the correlation
+    length along the arc (mm), or of the correlation time along the machining
+    clock (s) when ``noise.correlation_time_s`` is set (then ``clock_s``, the
+    time at each sample, is needed), scaled to unit variance, linearly interpolated.
+    """
+    from scipy.ndimage import gaussian_filter1d
+
+    rng = np.random.default_rng(seed)
+    if noise.correlation_time_s is not None:
+        if clock_s is None:
+            raise ParameterError("a noise correlated in time needs the machining clock (clock_s).")
+        arc_mm, corr = np.asarray(clock_s, dtype=np.float64), noise.correlation_time_s
+    else:
+        corr = noise.correlation_length_mm
+    h = corr / 8.0
+    n = int(np.ceil((arc_mm.max() if arc_mm.size else 0.0) / h)) + 2
+    sig = (corr / np.sqrt(2.0)) / h  # filter sigma, samples
+    e = gaussian_filter1d(rng.standard_normal(n), sig, mode="wrap")
+    delta = np.zeros(int(8 * sig) + 1)
+    delta[len(delta) // 2] = 1.0
+    e /= np.sqrt(np.sum(gaussian_filter1d(delta, sig, mode="constant") ** 2))
+    eps = np.interp(arc_mm / h, np.arange(n), e)
+    return np.maximum(0.0, 1.0 + noise.rms * eps)
+
+
+def rasterize_time(xy: np.ndarray, t: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float):
+    """Bilinear splat of timed samples onto a grid: time density, s/mm^2.
+
+    Parameters
+    ----------
+    xy : (M, 2) float64
+        Sample positions, mm.
+    t : (M,) float64
+        Time per sample, s.
+    shape : (Ny, Nx)
+        Grid shape; pixel (i, j) is centred at ``origin + (j, i) * dx``.
+    origin_mm : (2,) float
+    dx_mm : float
+
+    Returns
+    -------
+    density : (Ny, Nx) float64
+        s/mm^2; ``density.sum() * dx^2`` is the time that fell on the grid.
+    time_off_grid : float
+        Time of samples whose splat left the grid, s.
+    """
+    ny, nx = shape
+    gx = (xy[:, 0] - origin_mm[0]) / dx_mm
+    gy = (xy[:, 1] - origin_mm[1]) / dx_mm
+    i0 = np.floor(gx).astype(np.int64)
+    j0 = np.floor(gy).astype(np.int64)
+    fx = gx - i0
+    fy = gy - j0
+    acc = np.zeros(ny * nx)
+    lost = 0.0
+    for di, dj, w in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
+        ii, jj = i0 + di, j0 + dj
+        ok = (ii >= 0) & (ii < nx) & (jj >= 0) & (jj < ny)
+        acc += np.bincount(jj[ok] * nx + ii[ok], weights=(t * w)[ok], minlength=ny * nx)
+        lost += float(np.sum((t * w)[~ok]))
+    return acc.reshape(ny, nx) / (dx_mm * dx_mm), lost
+
+
+def _convolve_sum(densities: list[np.ndarray], kernels: list[np.ndarray]) -> np.ndarray:
+    """sum_k densities[k] * kernels[k] ('same' size), one inverse FFT for all terms.
+
+    Written out instead of scipy.signal.fftconvolve so that the direction sectors of
+    a DirectionalTIF are summed in the frequency domain (one inverse transform).
+    """
+    import scipy.fft as sfft
+
+    ny, nx = densities[0].shape
+    kmax = max(k.shape[0] for k in kernels)
+    sy = sfft.next_fast_len(ny + kmax - 1, real=True)
+    sx = sfft.next_fast_len(nx + kmax - 1, real=True)
+    acc = None
+    for d, k in zip(densities, kernels):
+        pad = (kmax - k.shape[0]) // 2
+        kk = np.pad(k, pad) if pad else k
+        term = sfft.rfft2(d.astype(np.float32), s=(sy, sx), workers=-1) * sfft.rfft2(
+            kk.astype(np.float32), s=(sy, sx), workers=-1)
+        acc = term if acc is None else acc + term
+    full = sfft.irfft2(acc, s=(sy, sx), workers=-1)
+    h = kmax // 2
+    return full[h:h + ny, h:h + nx]
+
+
+def smooth_surface(height_nm: np.ndarray, dx_mm: float, mean_depth_nm: float, smoothing: Smoothing) -> np.ndarray:
+    """Apply the linearised smoothing of :class:`Smoothing` for a removed depth (nm).
+
+    Parameters
+    ----------
+    height_nm : (Ny, Nx) float
+        Surface error, nm.
+    dx_mm : float
+        Pixel pitch, mm.
+    mean_depth_nm : float
+        Mean depth removed, nm.
+    smoothing : Smoothing
+
+    Returns
+    -------
+    (Ny, Nx) float32
+    """
+    import scipy.fft as sfft
+
+    ny, nx = height_nm.shape
+    # pad by reflection to a fast FFT size (a patch of 4001 px is prime-sized)
+    py = sfft.next_fast_len(ny, real=True)
+    px = sfft.next_fast_len(nx, real=True)
+    z = np.pad(np.asarray(height_nm, dtype=np.float32), ((0, py - ny), (0, px - nx)), mode="reflect")
+    fx = sfft.rfftfreq(px, d=dx_mm)
+    fy = sfft.fftfreq(py, d=dx_mm)
+    f2 = fx[None, :] ** 2 + fy[:, None] ** 2
+    H = 1.0 - np.exp(-f2 * smoothing.length_mm**2)
+    gain = np.exp(-(mean_depth_nm / smoothing.depth_nm) * H).astype(np.float32)
+    Z = sfft.rfft2(z, workers=-1)
+    return sfft.irfft2(Z * gain, s=(py, px), workers=-1)[:ny, :nx].astype(np.float32)
+
+
+def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: RotatingToolTIF,
+                      removal_dx_mm: float | None, tol: float):
+    """Removal (nm) of a :class:`RotatingToolTIF` with each sample's own feed velocity.
+
+    The TIF family is expanded in fixed kernels (:meth:`RotatingToolTIF.basis`);
+    each kernel's weighted time density is splatted on a grid of pitch
+    ``removal_dx_mm`` (an integer multiple q of ``dx``), all products are summed
+    in the frequency domain and, for q > 1, brought to the fine grid by
+    zero-padding the spectrum (exact for content below the coarse Nyquist
+    frequency; the TIF passes nothing above it) with the bilinear splat's
+    transfer function corrected to that of the fine grid.
+    """
+    import scipy.fft as sfft
+
+    ny, nx = shape
+    if removal_dx_mm is None:  # automatic: 1/100 of the contact radius, at most 20 um, a multiple of dx
+        removal_dx_mm = min(0.02, tif.contact_radius_mm / 100.0)
+    q = max(1, int(np.floor(removal_dx_mm / dx + 1e-9)))
+    dxc = q * dx
+    nyc, nxc = (ny - 1 + q - 1) // q + 1, (nx - 1 + q - 1) // q + 1
+    on = t > 0
+    sp = speed[on]
+    s_lo, s_hi = (float(sp.min()), float(sp.max())) if sp.size else (0.0, 0.0)
+    basis = tif.basis(dxc, (s_lo, s_hi), tol=tol, sample_speeds=sp, sample_times=t[on])
+    C = basis.coefficients(speed, heading)
+    kmax = basis.kernels[0].shape[0]
+    sy = sfft.next_fast_len(nyc + kmax - 1, real=True)
+    sx = sfft.next_fast_len(nxc + kmax - 1, real=True)
+    acc = None
+    for j, k in enumerate(basis.kernels):
+        d, _ = rasterize_time(xy, t * C[j], (nyc, nxc), origin_mm, dxc)
+        term = (sfft.rfft2(d.astype(np.float32), s=(sy, sx), workers=-1)
+                * sfft.rfft2(k.astype(np.float32), s=(sy, sx), workers=-1))
+        acc = term if acc is None else acc + term
+    h = kmax // 2
+    if q == 1:
+        full = sfft.irfft2(acc, s=(sy, sx), workers=-1)
+        return (full[h:h + ny, h:h + nx] * dx * dx).astype(np.float32), basis, q
+    fy = sfft.fftfreq(sy, d=dxc)
+    fx = sfft.rfftfreq(sx, d=dxc)
+    corr_y = (np.sinc(fy * dx) / np.sinc(fy * dxc)) ** 2
+    corr_x = (np.sinc(fx * dx) / np.sinc(fx * dxc)) ** 2
+    acc *= (corr_y[:, None] * corr_x[None, :]).astype(np.float32)
+    Sy, Sx = q * sy, q * sx
+    big = np.zeros((Sy, Sx // 2 + 1), dtype=np.complex64)
+    ncol = sx // 2 + 1 if sx % 2 else sx // 2  # drop the Nyquist column / row
+    npos = (sy + 1) // 2
+    nneg = (sy - 1) // 2
+    big[:npos, :ncol] = acc[:npos, :ncol]
+    if nneg:
+        big[Sy - nneg:, :ncol] = acc[sy - nneg:, :ncol]
+    del acc
+    full = sfft.irfft2(big, s=(Sy, Sx), workers=-1)
+    del big
+    H = h * q
+    return (full[H:H + ny, H:H + nx] * (q * q * dxc * dxc)).astype(np.float32), basis, q
+
+
+def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | DirectionalTIF | RotatingToolTIF, *,
+                     noise: ProcessNoise | None = None, smoothing: Smoothing | None = None, seed: int = 0,
+                     pieces=None, sample_step_mm: float | None = None,
+                     time_model: str = "segments", machine: dict | None = None,
+                     removal_dx_mm: float | None = None, basis_tol: float = 2e-3) -> SimulationResult:
+    """Simulate polishing a workpiece patch along a path (Preston removal, FFT convolution).
+
+    Parameters
+    ----------
+    path_xy : (N, 2) float
+        Dwell points in path order, mm, in the workpiece's plane.
+    dwell_s : (N,) float
+        Time per dwell point, s (see :func:`dwell_from_feed` for constant feed).
+    workpiece : Workpiece
+        Initial surface error and the grid.
+    tif : TIF, DirectionalTIF or RotatingToolTIF
+        Removal rate around the tool, nm/s; a DirectionalTIF splits the path
+        by direction of travel; a RotatingToolTIF removes with each path
+        sample's own feed velocity (direction and speed).
+    noise : ProcessNoise, optional
+        Removal-rate fluctuation along the path (seeded by ``seed``).
+    smoothing : Smoothing, optional
+        Decay of the initial error with the depth removed; None = pure Preston removal.
+    seed : int
+        Seed of the process noise (recorded even when unused).
+    pieces : (K+1,) int, optional
+        Continuous pieces of the path (tool lifts in between).
+    sample_step_mm : float, optional
+        Path sampling step, mm (default half a pixel).
+    time_model : {"segments", "points", "machine"}
+        Continuous motion (time spread along the path, default),
+        stop-and-dwell at the points, or the NURBS-smoothed path at a constant
+        interpolation period; see :func:`path_motion_samples`.
+    machine : dict, optional
+        Options of the ``"machine"`` time model (period_ms, chord_tol_mm, max_feed_factor).
+    removal_dx_mm : float, optional
+        RotatingToolTIF only: pitch of the grid the removal is convolved on, mm
+        (rounded down to a multiple of the pixel; default min(20 um, contact
+        radius / 100)); the result is brought to the pixel grid spectrally.
+    basis_tol : float
+        RotatingToolTIF only: relative L2 truncation error of its kernel expansion.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    t0 = time.perf_counter()
+    dx = workpiece.dx_mm
+    step = sample_step_mm or dx / 2
+    xy, t, heading, arc, length, motion = path_motion_samples(path_xy, dwell_s, step, pieces, time_model, machine)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        speed = np.where(t > 0, length / t, 0.0)  # mm/s, before the rate noise (it is not a speed change)
+    if noise is not None and noise.rms > 0:
+        t = t * process_noise_factor(arc, noise, seed, clock_s=path_clock(arc, t))
+    t1 = time.perf_counter()
+    shape = workpiece.shape
+    rot_info = None
+    if isinstance(tif, RotatingToolTIF):
+        total_density, lost = rasterize_time(xy, t, shape, workpiece.origin_mm, dx)
+        on_grid = total_density.sum() * dx * dx
+        # expected volume: exact volume rate at each sample's speed (table over the speeds present)
+        on = t > 0
+        tab = np.linspace(speed[on].min(), speed[on].max(), 17) if on.any() else np.zeros(1)
+        vr = np.interp(speed, tab, np.atleast_1d(tif.volume_rate_at(tab))) if len(tab) > 1 else \
+            np.full(len(t), tif.volume_rate_at(float(tab[0])))
+        tt = float(t.sum())
+        expected = float(np.sum(t * vr)) * (on_grid / tt if tt > 0 else 0.0)
+        t2 = time.perf_counter()
+        removal, basis, q = _rotating_removal(xy, t, speed, heading, shape, workpiece.origin_mm, dx, tif,
+                                              removal_dx_mm, basis_tol)
+        rot_info = {"n_terms": basis.params["n_terms"], "harmonics": basis.params["harmonics"],
+                    "truncation_rel_error": basis.rel_error, "removal_dx_mm": q * dx,
+                    "speed_range_mm_s": basis.params["speed_range_mm_s"],
+                    "mean_speed_mm_s": float(np.sum(t * speed) / tt) if tt > 0 else 0.0}
+        groups = [None] * basis.params["n_terms"]
+        t3 = time.perf_counter()
+    elif isinstance(tif, DirectionalTIF):
+        sec = tif.sector(heading)
+        groups = [(tif.tifs[k], sec == k) for k in range(len(tif.tifs)) if np.any(sec == k)]
+    elif isinstance(tif, TIF):
+        groups = [(tif, slice(None))]
+    else:
+        raise ParameterError(f"tif must be a TIF, DirectionalTIF or RotatingToolTIF, got {type(tif).__name__}.",
+                             "Build one with gaussian_tif(), measured_tif(), tilted_tool_tif() or rotating_tool_tif().")
+    if rot_info is None:
+        densities, kernels = [], []
+        lost = 0.0
+        expected = 0.0
+        total_density = np.zeros(shape)
+        for g, m in groups:
+            d, l = rasterize_time(xy[m], t[m], shape, workpiece.origin_mm, dx)
+            lost += l
+            densities.append(d)
+            kernels.append(g.kernel(dx))
+            expected += g.volume_rate * float(d.sum() * dx * dx)
+            total_density += d
+        t2 = time.perf_counter()
+        removal = (_convolve_sum(densities, kernels) * (dx * dx)).astype(np.float32)
+        t3 = time.perf_counter()
+    sub = removal[::4, ::4]  # a quarter of the pixels each way is plenty for these statistics
+    thr = 0.5 * float(np.percentile(sub, 99.5))
+    mean_depth = float(np.median(sub[sub > thr])) if thr > 0 else 0.0
+    before = np.asarray(workpiece.height_nm, dtype=np.float32)
+    base = smooth_surface(before, dx, mean_depth, smoothing) if smoothing is not None else before
+    after = (base - removal).astype(np.float32)
+    t4 = time.perf_counter()
+    tif_params = ({"kind": "directional", **tif.params} if isinstance(tif, DirectionalTIF)
+                  else {"kind": tif.kind, **{k: v for k, v in tif.params.items()}})
+    if machine:
+        params_machine = dict(machine)
+    else:
+        params_machine = None
+    params = {
+        "tif": tif_params, "noise": None if noise is None else vars(noise).copy(),
+        "smoothing": None if smoothing is None else vars(smoothing).copy(),
+        "time_model": time_model, "machine": params_machine, "removal_dx_mm": removal_dx_mm, "basis_tol": basis_tol,
+        "dx_mm": dx, "grid_shape": list(shape), "origin_mm": workpiece.origin_mm.tolist(), "sample_step_mm": step,
+        "n_path_points": int(len(np.asarray(path_xy))), "workpiece": workpiece.provenance.to_dict(),
+    }
+    stats = {
+        "total_time_s": float(np.sum(dwell_s)), "effective_time_s": float(np.sum(t)), "time_on_grid_s": float(total_density.sum() * dx * dx),
+        "time_off_grid_s": lost, "removed_volume_nm_mm2": float(removal.astype(np.float64).sum() * dx * dx),
+        "expected_volume_nm_mm2": expected, "mean_depth_nm": mean_depth, "n_samples": int(len(t)),
+        "n_direction_groups": len(groups), "rotating": rot_info, "motion": motion,
+        "timings_s": {"sample": t1 - t0, "rasterize": t2 - t1, "convolve": t3 - t2, "smooth": t4 - t3,
+                      "total": t4 - t0},
+    }
+    return SimulationResult(before, after, removal, total_density.astype(np.float32), dx, workpiece.origin_mm.copy(),
+                            Provenance("simulate", "preston-fft", params, seed=seed), stats)
