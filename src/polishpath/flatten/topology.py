@@ -266,14 +266,17 @@ def half_edge_twin_slots(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     a = f.ravel()
     b = np.roll(f, -1, axis=1).ravel()
     n = int(f.max()) + 1
-    key = a * n + b
-    rkey = b * n + a
-    order = np.argsort(key, kind="stable")
-    sk = key[order]
-    pos = np.searchsorted(sk, rkey)
-    pos = np.minimum(pos, len(sk) - 1)
-    found = sk[pos] == rkey
-    he = np.where(found, order[pos], -1)
+    # one sort of the undirected edge keys puts the two half-edges of an edge side
+    # by side (about 2x faster than a sort plus a binary search for every reverse key)
+    ukey = np.minimum(a, b) * n + np.maximum(a, b)
+    order = np.argsort(ukey, kind="stable")
+    sk = ukey[order]
+    i = np.nonzero(sk[1:] == sk[:-1])[0]
+    h1, h2 = order[i], order[i + 1]
+    ok = a[h1] == b[h2]  # opposite directions only (a consistently oriented pair)
+    he = np.full(3 * F, -1, dtype=np.int64)
+    he[h1[ok]] = h2[ok]
+    he[h2[ok]] = h1[ok]
     twin_face = np.where(he >= 0, he // 3, -1).reshape(F, 3)
     twin_slot = np.where(he >= 0, he % 3, -1).reshape(F, 3)
     return twin_face, twin_slot
