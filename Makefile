@@ -31,7 +31,10 @@ demo: install
 test: install-test system-deps
 	$(BIN)/python -m pytest -q
 
+# benchmarks use the optional fast sparse Cholesky when it can be built (Debian libsuitesparse-dev)
 bench: install-test
+	@bash scripts/install-system-deps.sh --fast
+	-$(BIN)/python -m pip install -q -e '.[fast]'
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:

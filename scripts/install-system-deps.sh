@@ -3,6 +3,16 @@
 # report's browser test). Does nothing when they are present; when they cannot be
 # installed (not root, no apt), says so and the browser test skips with that reason.
 set -u
+if [ "${1:-}" = "--fast" ]; then
+  # for `make bench`: SuiteSparse headers so scikit-sparse (CHOLMOD) can build, serial OpenBLAS
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1 && ! dpkg -s libsuitesparse-dev >/dev/null 2>&1; then
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq >/dev/null 2>&1 || true
+    apt-get install -y -qq --no-install-recommends libsuitesparse-dev libopenblas0-serial >/dev/null 2>&1 \
+      || echo "note: could not install libsuitesparse-dev; benchmarks use SuperLU (slower)." >&2
+  fi
+  exit 0
+fi
 if command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1; then
   exit 0
 fi
