@@ -485,10 +485,13 @@ def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> Non
     typer.echo(f"{job.surface.name}: {job.surface.n_faces} faces, flattened with {job.flattening.provenance.method}")
     typer.echo(f"  {p['pattern']} path: {p['dwell_points']} dwell points, seed {summary['seed']}, "
                f"spacing {job.config.spacing:g} mm on the part (planar {p['planar_spacing_mm']:.4g} mm)")
-    for key, label in (("step_mean_mm", "mean step on the part"), ("step_max_mm", "max step on the part"),
-                       ("share_normal_range", "steps in [s, sqrt(2) s]")):
-        if key in st:
-            typer.echo(f"  {label:28s} {st[key]:.4g}")
+    if "step_mean" in st:
+        typer.echo(f"  steps on the part: mean {st['step_mean']:.4g} mm, max {st['step_max']:.4g} mm, "
+                   f"{100 * st.get('share_normal', float('nan')):.1f} % in [s, sqrt(2) s]")
+    sm = summary["smooth"]["stats"]
+    if "duration_s" in sm:
+        typer.echo(f"  machine path: {summary['smooth']['samples']} points at {summary['smooth']['period_ms']:g} ms, "
+                   f"{sm['duration_s'] / 60:.1f} min, chord error <= {1000 * sm.get('chord_error_max', float('nan')):.3g} um")
     m = p.get("metrics", {})
     for key in ("coverage", "directions_used", "crossings"):
         if key in m:
