@@ -112,7 +112,7 @@ def test_version():
     assert r.exit_code == 0 and __version__ in r.output
 
 
-@pytest.mark.parametrize("cmd", ["surfaces", "info", "flatten", "plan", "report", "simulate", "psd"])
+@pytest.mark.parametrize("cmd", ["surfaces", "info", "flatten", "plan", "report", "simulate", "psd", "paper"])
 def test_every_command_has_help_with_an_example(cmd):
     r = runner.invoke(app, [cmd, "--help"])
     assert r.exit_code == 0

@@ -245,3 +245,29 @@ def test_point_mesh_distance_on_a_plane():
     rng = np.random.default_rng(0)
     pts = np.column_stack([rng.uniform(1, 9, 50), rng.uniform(1, 9, 50), rng.uniform(-2, 2, 50)])
     assert np.allclose(point_mesh_distance(pts, plane), np.abs(pts[:, 2]), atol=1e-12)
+
+
+def test_interpolation_does_not_stall_at_a_cusp():
+    """Regression: a pseudo-random path on the pentagram whose spline has |C'| ~ 1e-13 at a
+    doubling-back turn made the constant-period interpolator stall (zero feed, no progress).
+    Run in a subprocess so a stall fails the test instead of hanging the suite."""
+    import subprocess
+    import sys
+
+    code = (
+        "from polishpath.surfaces import load_surface\n"
+        "from polishpath.flatten import boundary_region, flatten\n"
+        "from polishpath.mapping import honour_surface_spacing\n"
+        "from polishpath.plan import plan\n"
+        "from polishpath.smooth import smooth\n"
+        "s = load_surface('pentagram:triangles=1200'); flat = flatten(s, 'mabf'); region = boundary_region(flat)\n"
+        "planar, sp, h = honour_surface_spacing(flat, 1.4, lambda hh: plan(region, hh, 'pseudorandom', seed=0))\n"
+        "tp = smooth(sp)\n"
+        "print(tp.stats['chord_error_max'], tp.stats['dwell_through_max'], len(tp.samples))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    chord, through, n = r.stdout.split()
+    assert float(chord) <= 1e-3 * (1 + 1e-6)
+    assert float(through) < 1e-9
+    assert int(n) > 1000

@@ -432,11 +432,16 @@ def paper_cmd(
     with _guard(output):
         with progress.stage("reproducing the paper's tables and figures"):
             res = reproduce(output, quick=quick, seed=seed)
-        md = res.get("markdown") or res.get("paper_md") or (output / "paper.md")
-        typer.echo(f"wrote {md}")
-        html = res.get("html") or res.get("paper_html")
-        if html:
-            typer.echo(f"wrote {html}")
+        typer.echo(f"wrote {res['markdown']}")
+        if res.get("html"):
+            typer.echo(f"wrote {res['html']}")
+        secs = res.get("seconds", {}).get("total")
+        if secs is not None:
+            typer.echo(f"took {secs:.1f} s")
+        if res.get("errors"):
+            for name, err in dict(res["errors"]).items():
+                typer.echo(f"polishpath: error: section {name} failed: {err}", err=True)
+            raise typer.Exit(2)
 
 
 def _psd_json(res: dict) -> dict:

@@ -173,6 +173,13 @@ def _interp_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s
             if tol < rho:
                 vlim = 2.0 * math.sqrt(2.0 * rho * tol - tol * tol) / period_s
                 v = min(v, vlim)
+            else:
+                # radius under the tolerance (a near-cusp where the path doubles back): the
+                # whole turn fits inside one chord, so the curvature limit says nothing
+                # useful; crawl at the feed floor instead of stalling at zero speed
+                v = min(v, tol / period_s)
+        # feed floor: 0.1 % of the schedule, so the tool never stalls where |C'| -> 0
+        v = max(v, 1e-3 * min(region_feed[r], vmax))
         ln = v * period_s
         last = False
         for _ in range(60):
@@ -231,6 +238,13 @@ def _interp_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s
             ln *= min(f, 0.9)
             v = ln / period_s
             last = False
+        if un <= u:
+            # no progress in floating point (|C'| ~ 0 at a cusp): step over it by a
+            # parameter increment that is tiny on the curve's scale
+            un = min(u + 1e-9 * (u1 - u0), u1)
+            sn = _span_of(breaks, s, un)
+            pb, _, _ = _eval3(breaks, coeffs, sn, un)
+            last = un >= u1
         if n >= cap:
             cap *= 2
             nu = np.empty(cap)
