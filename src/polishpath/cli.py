@@ -218,7 +218,7 @@ def plan_cmd(
     seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (default: drawn and recorded)."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", help="Output folder (default: out)."),
     method: Optional[str] = typer.Option(None, "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection."),
-    pattern: Optional[str] = typer.Option(None, "--pattern", "-p", help="pseudorandom (default), raster, spiral, rectangular."),
+    pattern: Optional[str] = typer.Option(None, "--pattern", "-p", help="pseudorandom (default), raster, spiral, rectangular, or a peer: unicursal, maze, fractal, hilbert."),
     spacing_on: Optional[str] = typer.Option(None, "--spacing-on", help="'surface' (default: no step on the part over sqrt(2) x spacing) or 'plane'."),
     start: Optional[str] = typer.Option(None, "--start", help="Planar start point 'u,v' in mm (default: nearest the centre)."),
     margin: Optional[float] = typer.Option(None, "--margin", help="Keep dwell points this far inside the boundary, mm."),

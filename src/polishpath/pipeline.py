@@ -24,7 +24,7 @@ import numpy as np
 
 from . import progress
 from ._version import __version__
-from .errors import ParameterError, SpacingTooLargeError, SpecError
+from .errors import ParameterError, PlanningError, SpacingTooLargeError, SpecError
 from .fileio import atomic_open, jsonable
 from .types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
 
@@ -42,7 +42,8 @@ class JobConfig:
     method : str
         Flattening: ``mabf`` (default), ``abf``, ``lscm``, ``projection``.
     pattern : str
-        Path pattern: ``pseudorandom`` (default), ``raster``, ``spiral``, ``rectangular``.
+        Path pattern: ``pseudorandom`` (default), ``raster``, ``spiral``, ``rectangular``,
+        or a peer of the paper's Table 3: ``unicursal``, ``maze``, ``fractal``, ``hilbert``.
     spacing : float
         Dwell-point spacing, mm. Honoured on the part by default (see ``spacing_on``).
     spacing_on : {"surface", "plane"}
@@ -64,6 +65,13 @@ class JobConfig:
         CSV of per-dwell-point times (s), in path order.
     report : bool
         Write ``report.html`` and PNG figures.
+    max_points : int
+        Refuse to plan more dwell points than this.
+    max_oversampling : float
+        Refuse when honouring the spacing on the part needs more than this many
+        times the dwell points a uniform grid of that spacing would put on the
+        part (area / spacing^2): the flattening stretches the part too much for
+        one planar grid (an almost closed mesh, say).
     """
 
     surface: str = "hemisphere"
@@ -84,6 +92,8 @@ class JobConfig:
     tool_radius: float = 0.0
     dwell_times: str | None = None
     report: bool = True
+    max_points: int = 5_000_000
+    max_oversampling: float = 16.0
 
     def validate(self) -> None:
         if not (isinstance(self.spacing, (int, float)) and math.isfinite(self.spacing) and self.spacing > 0):
@@ -352,8 +362,21 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     with progress.stage(f"flattening ({cfg.method})", timings, "flatten"):
         flat = flatten_surface(surface, cfg.method)
         region = boundary_region(flat)
+    surface_area = float(flat.metrics.get("area_3d") or region.area)
 
     def planner(planar_spacing: float) -> PlanarPath:
+        estimate = region.area / planar_spacing**2
+        uniform = surface_area / cfg.spacing**2
+        if estimate > cfg.max_points or estimate > cfg.max_oversampling * uniform:
+            raise PlanningError(
+                f"keeping steps under sqrt(2) x {cfg.spacing:g} mm on the part needs a planar spacing of "
+                f"{planar_spacing:.3g} mm, about {estimate:.3g} dwell points where a uniform grid on the part "
+                f"would have {uniform:.3g}: the {cfg.method} flattening of {surface.name} stretches part of it "
+                f"{cfg.spacing / planar_spacing:.3g} times (mean |log area ratio| "
+                f"{flat.metrics.get('area_distortion_mean', float('nan')):.3g}).",
+                "Use --spacing-on plane (plain planar grid: larger steps where it stretches), or cut the part into "
+                "less closed patches; raise max_oversampling / max_points in a --config file to go on anyway.",
+            )
         return plan(region, planar_spacing, cfg.pattern, seed=cfg.seed, start=cfg.start, margin=cfg.margin)
 
     with progress.stage(f"planning {cfg.pattern} path", timings, "plan"):

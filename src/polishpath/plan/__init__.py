@@ -56,3 +56,9 @@ class _PlanModule(_types.ModuleType):
 
 
 _sys.modules[__name__].__class__ = _PlanModule
+
+
+# the peers of the paper's Table 3 (unicursal, maze, fractal, hilbert) register themselves
+from . import peers as _peers  # noqa: E402
+
+_peers.register_peers()

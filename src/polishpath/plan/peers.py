@@ -319,7 +319,7 @@ def _stc_path(cells: np.ndarray, phase: np.ndarray, ea: np.ndarray, eb: np.ndarr
     out = np.empty(4 * C, dtype=np.int64)
     offs = np.empty(4 * C + 1, dtype=np.int64)
     n, k = _walk_cycles(nb, starts, out, offs)
-    return fine[out[:n]], offs[: k + 1].copy(), int(len(ta))
+    return fine[out[:n]], offs[: k + 1].copy(), len(ta)
 
 
 def _cells_and_passages(cell_ok: np.ndarray, lo: np.ndarray, east_ok: np.ndarray, north_ok: np.ndarray):
@@ -410,7 +410,7 @@ def pattern_unicursal(grid: DwellGrid, region: Region, *, seed: int, start: int,
     order = _lookup(grid, ij)
     if np.any(order < 0):  # pragma: no cover - cells were checked
         raise RuntimeError("unicursal: a path point is not a dwell point")
-    stats = {"left_out": int(grid.n - len(order)), "maze_cells": int(len(cells)),
+    stats = {"left_out": int(grid.n - len(order)), "maze_cells": len(cells),
              "maze_components": int(len(pieces) - 1), "passages": n_tree, "phase": [int(x) for x in ph],
              "tree": tree}
     return PatternResult(grid.uv[order], grid.ij[order], pieces.astype(np.int64), True, stats)
@@ -498,7 +498,7 @@ def pattern_maze(grid: DwellGrid, region: Region, *, seed: int, start: int, tree
     uv = grid.to_uv(ij)
     k = _lookup(grid, ij)
     stats = {"left_out": int(grid.n - np.count_nonzero(k >= 0)), **_outside_figures(grid, uv, pieces),
-             "rows_clipped": int(clipped), "maze_cells": int(len(cells)), "maze_components": int(len(pieces) - 1),
+             "rows_clipped": int(clipped), "maze_cells": len(cells), "maze_components": int(len(pieces) - 1),
              "passages": n_tree, "tree": tree}
     return PatternResult(uv, ij, pieces.astype(np.int64), False, stats)
 
