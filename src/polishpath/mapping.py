@@ -552,6 +552,25 @@ def planar_spacing_for_surface(
     return float(max_step_factor * spacing / (SQRT2 * smax))
 
 
+def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
+    """Largest 3D step between consecutive dwell points that are grid neighbours.
+
+    Moves that are not grid steps (a raster's connecting chord along the
+    boundary, the jump between pieces) are transit moves of the pattern, not
+    dwell steps, so they do not set the spacing. Off-grid patterns (spiral):
+    every step within a piece counts.
+    """
+    d = np.linalg.norm(np.diff(mapped.xyz, axis=0), axis=1)
+    if len(d) == 0:
+        return 0.0
+    valid = np.ones(len(d), dtype=bool)
+    cuts = np.asarray(planar.pieces)[1:-1] - 1
+    valid[cuts[(cuts >= 0) & (cuts < len(d))]] = False
+    if planar.stats.get("on_grid", True):
+        valid &= np.abs(np.diff(planar.ij, axis=0)).max(axis=1) <= 1
+    return float(d[valid].max()) if valid.any() else 0.0
+
+
 def honour_surface_spacing(
     flat: Flattening,
     spacing: float,
@@ -605,7 +624,7 @@ def honour_surface_spacing(
         planar = planner(h)
         mapped = map_to_surface(flat, planar, surface_spacing=spacing)
         tries += 1
-        m = mapped.stats["step_max"]
+        m = _grid_step_max(planar, mapped)
         fits = m <= limit * (1 + 1e-9)
         if fits and (best is None or h > best[2]):
             best = (planar, mapped, h)
@@ -622,5 +641,6 @@ def honour_surface_spacing(
         best = (planar, map_to_surface(flat, planar, surface_spacing=spacing), h)
         tries += 1
     planar, mapped, h = best
-    mapped.stats.update(planar_spacing=float(h), step_reduction_factor=float(h / spacing), replans=tries)
+    mapped.stats.update(planar_spacing=float(h), step_reduction_factor=float(h / spacing), replans=tries,
+                        grid_step_max=_grid_step_max(planar, mapped))
     return planar, mapped, float(h)

@@ -24,7 +24,7 @@ import numpy as np
 
 from . import progress
 from ._version import __version__
-from .errors import ParameterError, PlanningError, SpacingTooLargeError, SpecError
+from .errors import MappingError, ParameterError, PlanningError, SpacingTooLargeError, SpecError
 from .fileio import atomic_open, jsonable
 from .types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
 
@@ -387,6 +387,14 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
                 planar_spacing = cfg.spacing
                 planar = planner(planar_spacing)
                 spath = map_to_surface(flat, planar)
+        except MappingError as exc:
+            if cfg.pattern == "pseudorandom":
+                raise
+            raise MappingError(
+                f"the {cfg.pattern} pattern places dwell points outside the part: {exc.message}",
+                f"That is how the {cfg.pattern} path is built (see docs/peer-paths.md); it cannot be run on this part. "
+                "Compare it with benchmarks/table3.py, or choose another --pattern.",
+            ) from None
         except SpacingTooLargeError as exc:
             x0, y0, x1, y1 = region.bounds
             raise SpacingTooLargeError(
