@@ -71,6 +71,26 @@ def test_seed_is_drawn_and_recorded_when_not_given(tmp_path):
     assert f"seed = {seed}" in (tmp_path / "job.toml").read_text()
 
 
+def test_dwell_times_from_csv(small_run, tmp_path):
+    out, summary = small_run
+    n = summary["plan"]["dwell_points"]
+    wanted = np.linspace(0.1, 0.3, n)
+    csv = tmp_path / "times.csv"
+    csv.write_text("dwell_time\n" + "\n".join(f"{t:.6f}" for t in wanted) + "\n")
+    r = runner.invoke(app, ["plan", "--config", str(out / "job.toml"), "--dwell-times", str(csv),
+                            "-o", str(tmp_path / "o"), "--no-report", "-q"])
+    assert r.exit_code == 0, r.output
+    from polishpath.export import read_path_csv
+
+    got = read_path_csv(tmp_path / "o" / "path.csv")["dwell_time"]
+    np.testing.assert_allclose(got, wanted, rtol=1e-5)
+    bad = tmp_path / "short.csv"
+    bad.write_text("dwell_time\n0.1\n0.2\n")
+    r = runner.invoke(app, ["plan", "--config", str(out / "job.toml"), "--dwell-times", str(bad),
+                            "-o", str(tmp_path / "o2"), "--no-report", "-q"])
+    assert r.exit_code == 2 and "Traceback" not in r.output
+
+
 def test_no_progress_when_not_a_tty(tmp_path):
     env = dict(os.environ)
     r = subprocess.run(

@@ -149,6 +149,9 @@ class JobConfig:
             cand = p.parent / surf
             if not Path(surf).is_absolute() and cand.exists():
                 kw["surface"] = str(cand)
+        dwell = kw.get("dwell_times")
+        if isinstance(dwell, str) and not Path(dwell).is_absolute() and (p.parent / dwell).exists():
+            kw["dwell_times"] = str(p.parent / dwell)
         if kw.get("start") is not None:
             kw["start"] = tuple(kw["start"])
         kw.update({k: v for k, v in overrides.items() if v is not None})
