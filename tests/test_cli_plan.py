@@ -13,7 +13,8 @@ import pytest
 from typer.testing import CliRunner
 
 from polishpath.cli import app
-from polishpath.pipeline import JobConfig, _atomic_write_text
+from polishpath.fileio import atomic_open
+from polishpath.pipeline import JobConfig
 
 runner = CliRunner()
 SMALL = "hemisphere:R=15,triangles=800"
@@ -151,12 +152,10 @@ def test_every_command_has_help_with_an_example(cmd):
 def test_atomic_writer_leaves_nothing_on_interrupt(tmp_path):
     target = tmp_path / "x.txt"
 
-    def writer(fh):
-        fh.write("half")
-        raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
-        _atomic_write_text(target, writer)
+        with atomic_open(target, "w") as fh:
+            fh.write("half")
+            raise KeyboardInterrupt
     assert not target.exists()
     assert list(tmp_path.iterdir()) == []
 

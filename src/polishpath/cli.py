@@ -90,9 +90,9 @@ class _guard:
 
 
 def _print_json(obj: Any) -> None:
-    from .pipeline import _jsonable
+    from .fileio import jsonable
 
-    typer.echo(json.dumps(_jsonable(obj), indent=2))
+    typer.echo(json.dumps(jsonable(obj), indent=2))
 
 
 def _quiet(quiet: bool, json_out: bool) -> None:
@@ -183,7 +183,8 @@ def flatten_cmd(
     Example: polishpath flatten lilium.obj --method mabf -o flat.obj --json
     """
     from . import progress
-    from .pipeline import _atomic_write_text, flatten_surface
+    from .fileio import atomic_open
+    from .pipeline import flatten_surface
     from .surfaces import load_surface
 
     _quiet(quiet, json_out)
@@ -196,7 +197,8 @@ def flatten_cmd(
             from .flatten import save_obj
 
             output.parent.mkdir(parents=True, exist_ok=True)
-            _atomic_write_text(output, lambda fh: save_obj(flat, fh))
+            with atomic_open(output, "w") as fh:
+                save_obj(flat, fh)
         d = {"surface": s.source or s.name, "method": method, "vertices": s.n_vertices, "faces": s.n_faces,
              "metrics": flat.metrics, "timings_s": flat.timings, "output": str(output) if output else None}
         if json_out:

@@ -223,7 +223,7 @@ class Job:
             ),
             "timings_s": self.timings,
         }
-        return _jsonable(s)
+        return jsonable(s)
 
     def save(self, out_dir: str | Path, *, report: bool | None = None) -> dict[str, Path]:
         """Write every output into ``out_dir`` atomically (a temp folder renamed into place per file).
@@ -249,9 +249,11 @@ class Job:
             export.write_gcode(self.tool_path, out / "toolpath.nc", mode=self.config.gcode,
                                tool_radius=self.config.tool_radius, header=header)
             written["gcode"] = out / "toolpath.nc"
-            _atomic_write_text(out / "flat.obj", lambda fh: save_obj(self.flattening, fh))
+            with atomic_open(out / "flat.obj", "w") as fh:
+                save_obj(self.flattening, fh)
             written["flat_obj"] = out / "flat.obj"
-            _atomic_write_text(out / "job.toml", lambda fh: fh.write(self._job_config_with_seed().to_toml()))
+            with atomic_open(out / "job.toml", "w") as fh:
+                fh.write(self._job_config_with_seed().to_toml())
             written["job"] = out / "job.toml"
             _save_arrays(self, out / "run.npz")
             written["arrays"] = out / "run.npz"
@@ -300,23 +302,8 @@ def _save_arrays(job: Job, path: Path) -> None:
     for i, loop in enumerate(job.region.loops):
         arrays[f"region_loop_{i}"] = loop
 
-    def w(fh):
-        np.savez_compressed(fh, **arrays)
-
-    _atomic_write_bytes(path, w)
-
-
-def _atomic_write_text(path: Path, writer) -> None:
-    with atomic_open(path, "w") as fh:
-        writer(fh)
-
-
-def _atomic_write_bytes(path: Path, writer) -> None:
     with atomic_open(path, "wb") as fh:
-        writer(fh)
-
-
-_jsonable = jsonable
+        np.savez_compressed(fh, **arrays)
 
 
 def flatten_surface(surface: Surface, method: str) -> Flattening:

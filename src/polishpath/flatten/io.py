@@ -30,7 +30,7 @@ def save_obj(flat: Flattening, file) -> None:
     f = flat.surface.faces + 1
     buf = _io.StringIO()
     buf.write(f"# polishpath flattening: method={flat.provenance.method} version={flat.provenance.version}\n")
-    buf.write(f"# v: 3D vertices (mm); vt: planar coordinates (mm), same indices\n")
+    buf.write("# v: 3D vertices (mm); vt: planar coordinates (mm), same indices\n")
     np.savetxt(buf, v, fmt="v %.17g %.17g %.17g")
     np.savetxt(buf, flat.uv, fmt="vt %.17g %.17g")
     np.savetxt(buf, np.repeat(f, 2, axis=1), fmt="f %d/%d %d/%d %d/%d")

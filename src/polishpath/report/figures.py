@@ -342,29 +342,7 @@ FIGURES: dict[str, tuple[Callable, str]] = {
 
 def save_png(fig, path) -> None:
     """Write a figure as PNG atomically (temp file renamed into place)."""
-    import os
-    import tempfile
-    from pathlib import Path
+    from ..fileio import atomic_open
 
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        _public_mode(tmp)
-        with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=DPI)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
-def _public_mode(path) -> None:
-    """mkstemp makes 0600 files; give the output the usual permissions (0666 minus the umask)."""
-    import os
-
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(path, 0o666 & ~mask)
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=DPI)

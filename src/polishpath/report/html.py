@@ -14,15 +14,14 @@ import gzip
 import html
 import json
 import math
-import os
 import platform
-import tempfile
 import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..fileio import atomic_open
 from .rundata import RunData, load_run, step_lengths
 
 # --- small formatting helpers ------------------------------------------------------
@@ -447,21 +446,6 @@ def _tables_section(run: RunData) -> str:
 # --- entry point -------------------------------------------------------------------
 
 
-def _atomic_write_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        _public_mode(tmp)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, Path]:
     """Write ``report.html`` and the PNG figures of a finished run folder.
 
@@ -514,17 +498,11 @@ def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, 
         written[f"figure_{name}"] = png
     page = build_html(run, drawn, compress_js=compress_js)
     report = run.folder / "report.html"
-    _atomic_write_text(report, page)
+    with atomic_open(report, "w") as fh:
+        fh.write(page)
     return {"report": report, **written}
 
 
 __all__ = ["build_html", "flatten_items", "fmt_value", "write_report"]
 
 
-def _public_mode(path) -> None:
-    """mkstemp makes 0600 files; give the output the usual permissions (0666 minus the umask)."""
-    import os
-
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(path, 0o666 & ~mask)

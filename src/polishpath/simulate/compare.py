@@ -14,7 +14,7 @@ from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peak
 from ..types import Region
 from .removal import ProcessNoise, SimulationResult, Smoothing, dwell_from_feed, simulate_removal
 from .rotating import RotatingToolTIF, rotating_tool_tif
-from .tif import TIF, DirectionalTIF, gaussian_tif
+from .tif import TIF, DirectionalTIF
 from .workpiece import DEFAULT_DX_MM, Workpiece, synthetic_workpiece
 
 #: The paper's Table 4: (before, after, suppression ratio) of the band-average PSD, 10^3-10^5 1/m.
