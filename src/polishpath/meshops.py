@@ -31,15 +31,17 @@ def corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     f = np.asarray(faces)
     p = v[f]  # (F, 3, d)
     out = np.empty(f.shape, dtype=np.float64)
+    # |a x b| is twice the triangle's area at every corner: computed once
+    e1 = p[:, 1] - p[:, 0]
+    e2 = p[:, 2] - p[:, 0]
+    if v.shape[1] == 2:
+        cr = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    else:
+        cr = np.linalg.norm(np.cross(e1, e2), axis=1)
     for k in range(3):
         a = p[:, (k + 1) % 3] - p[:, k]
         b = p[:, (k + 2) % 3] - p[:, k]
-        dot = np.einsum("ij,ij->i", a, b)
-        if v.shape[1] == 2:
-            cr = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
-        else:
-            cr = np.linalg.norm(np.cross(a, b), axis=1)
-        out[:, k] = np.arctan2(cr, dot)
+        out[:, k] = np.arctan2(cr, np.einsum("ij,ij->i", a, b))
     return out
 
 
@@ -132,8 +134,12 @@ def edge_face_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def boundary_edges(faces: np.ndarray) -> np.ndarray:
     """Directed boundary half-edges (B, 2), oriented as in their face."""
     he = directed_edges(faces)
-    key = np.sort(he, axis=1)
-    _, _, inv, counts = unique_rows(key)
+    if len(he) == 0:
+        return he
+    # one int64 key per undirected edge: a 1-D sort, several times faster than unique_rows
+    n = np.int64(he.max()) + 1
+    key = np.minimum(he[:, 0], he[:, 1]).astype(np.int64) * n + np.maximum(he[:, 0], he[:, 1])
+    _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
     return he[counts[inv] == 1]
 
 
