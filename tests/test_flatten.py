@@ -159,8 +159,10 @@ def test_flatten_reports_residuals_and_metrics():
     fl = flatten(surface("saddle"), "mabf")
     assert set(fl.residuals) == {"triangle", "vertex", "wheel"}
     assert len(fl.residuals["triangle"]) == fl.surface.n_faces
+    tol = fl.provenance.params["tol"]
+    assert tol == 1e-8  # the stated default
     for k in ("triangle", "vertex", "wheel"):
-        assert fl.metrics[f"max_{k}_residual"] < 1e-9
+        assert fl.metrics[f"max_{k}_residual"] < tol
     for k in ("angle_error_mean_deg", "area_distortion_mean", "conformal_ratio_mean", "flipped_faces", "boundary_self_overlap"):
         assert k in fl.metrics
     assert fl.metrics["flipped_faces"] == 0
@@ -210,13 +212,15 @@ def test_area_scaled_and_centred():
 
 def test_layouts_agree_on_converged_angles():
     s = surface("cap")
-    ang, _, _ = mabf_angles(s.vertices, s.faces)
+    tol = 1e-8
+    ang, _, _ = mabf_angles(s.vertices, s.faces, tol=tol)
     a = midpoint_layout(s.vertices, s.faces, ang)
     b = least_squares_layout(s.vertices, s.faces, ang)
     scale = np.sqrt(meshops.face_areas(a, s.faces).sum() / meshops.face_areas(b, s.faces).sum())
     assert rigid_residual(a, b * scale) < 1e-7 * 20.0
-    # the planar angles of the midpoint layout are the solved angles
-    assert np.abs(meshops.corner_angles(a, s.faces) - ang).max() < 1e-8
+    # the planar angles of the midpoint layout are the solved angles, to a few times
+    # the constraint tolerance (the copies of a vertex differ by that much)
+    assert np.abs(meshops.corner_angles(a, s.faces) - ang).max() < 5 * tol
 
 
 # --- accuracy against the peers ------------------------------------------------------
@@ -252,7 +256,7 @@ def test_shared_camelhead_slivers_do_not_break_the_solve(shared_mesh):
     assert meshops.corner_angles(s.vertices, s.faces).min() < np.radians(1.0)
     fl = flatten(s, "mabf")
     assert fl.metrics["flipped_faces"] == 0
-    assert fl.metrics["max_wheel_residual"] < 1e-9
+    assert fl.metrics["max_wheel_residual"] < fl.provenance.params["tol"]
     assert fl.metrics["angle_error_mean_deg"] < 1.41  # LSCM's figure on this mesh
 
 

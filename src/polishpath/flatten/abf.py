@@ -26,7 +26,7 @@ def abf_angles(
     faces: np.ndarray,
     *,
     min_angle: float = np.radians(1.0),
-    tol: float = 1e-10,
+    tol: float = 1e-8,
     max_iter: int = 50,
     face_weight: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:

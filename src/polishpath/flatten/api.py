@@ -89,7 +89,9 @@ def flatten(
         ``weights`` ("auto", "uniform", "inverse_square"; MABF, default "auto":
         uniform as in the paper, switching to ABF's 1/beta^2 weights if uniform
         weights drive a sliver towards zero), ``min_angle`` (radians, default 1
-        degree), ``tol`` (default 1e-10), ``max_iter``, ``solver`` ("auto",
+        degree), ``tol`` (default 1e-8: largest constraint residual, radians /
+        log-sine units; below the ~1e-7 rad precision of angles from float32 STL
+        coordinates), ``max_iter``, ``solver`` ("auto",
         "cholmod", "superlu"), ``hole_weight`` (energy weight of the virtual
         faces filling holes, default 0.01).
 
@@ -123,7 +125,7 @@ def flatten(
     F, V = len(f), len(v)
     solver = options.get("solver", "auto")
     min_angle = float(options.get("min_angle", np.radians(1.0)))
-    tol = float(options.get("tol", 1e-10))
+    tol = float(options.get("tol", 1e-8))
     params: dict = {"min_angle": min_angle, "tol": tol}
     timings: dict[str, float] = {}
     residuals: dict[str, np.ndarray] = {}
