@@ -334,10 +334,10 @@ class _Schur:
         self.rows = np.ascontiguousarray(t.interior_index[f])  # (F, 3), -1 on boundary vertices
         self._indptr, self._indices, self._slot = _kernel_pattern(self.rows, self.Vi)
         self._nnz = len(self._indices)
-        # AMD below ~150k rows: METIS orders 20-30 % less fill on these 2D-mesh patterns,
-        # but its analysis costs ~7x AMD's (0.75 vs 0.1 s at 100k rows), more than the
-        # cheaper solves save in the ~40-60 solves of a run
-        ordering = "metis" if self.Vi > 150000 else "amd"
+        # AMD: METIS orders 25-30 % less fill on these 2D-mesh patterns, but its
+        # analysis costs 7x AMD's (0.75 vs 0.1 s at 100k rows, 3.4 vs 0.5 s at 400k),
+        # more than its cheaper factorisations and solves save in a run
+        ordering = "amd"
         self.factorizer = SpdFactorizer(self._csc(np.ones(9 * F)), solver, ordering=ordering)
         self.cot = np.zeros(3 * F)
         self.K = self._block(None)
