@@ -406,3 +406,57 @@ def test_mabf_pcg_stall_falls_back_to_direct():
     _, res, st = mabf_angles(s.vertices, s.faces, linear="pcg", stall=1, tol=1e-11)
     assert st.get("pcg_stalled") and st["linear"] == "direct"
     assert np.abs(res["wheel"]).max() < 1e-9
+
+
+@pytest.mark.parametrize("weights", ["uniform", "inverse_square"])
+def test_schur_blocks_and_solve_match_the_explicit_matrices(weights):
+    """The matrix-free reduced system (numba pattern, face-by-face products, Schur-complement
+    CG) against S = J2 P J2^T built with scipy from the paper's B and wheel matrices. If this
+    fails, a kernel in flatten/mabf.py no longer computes what its comment says."""
+    import scipy.sparse as sp
+
+    from polishpath.flatten.mabf import _Schur
+    from polishpath.flatten.topology import wheel_pattern
+
+    s = surface("cap", n_rings=8)
+    f = s.faces
+    F = len(f)
+    t = corner_tables(len(s.vertices), f)
+    beta = meshops.corner_angles(s.vertices, f).ravel()
+    dinv = np.ones(3 * F) if weights == "uniform" else beta**2
+    sch = _Schur(t, dinv, "superlu")
+    cot = 1.0 / np.tan(beta)
+    sch.set_jacobian(cot, refactor_m=True)
+    Vi = t.n_interior
+    B = vertex_sum_matrix(t)
+    wr, wc, ws = wheel_pattern(t)
+    Jw = sp.csr_matrix((ws * cot[wc], (wr, wc)), shape=(Vi, 3 * F))
+    d = dinv.reshape(-1, 3)
+    blocks = [np.diag(di) - np.outer(di, di) / di.sum() for di in d]
+    P = sp.block_diag(blocks, format="csr")
+    J2 = sp.vstack([B, Jw], format="csr")
+    S = (J2 @ P @ J2.T).toarray()
+    assert np.allclose(sch.K.toarray(), S[:Vi, :Vi], atol=1e-12)
+    assert np.allclose(sch.M.toarray(), S[Vi:, Vi:], atol=1e-10)
+    # every column's rows are sorted and unique (what CHOLMOD expects)
+    for j in range(Vi):
+        rows = sch.K.indices[sch.K.indptr[j] : sch.K.indptr[j + 1]]
+        assert np.all(np.diff(rows) > 0)
+    y = np.random.default_rng(0).standard_normal(2 * Vi)
+    assert np.allclose(sch.matvec(y), S @ y, atol=1e-10)
+    rhs = S @ y
+    sol, k, err = sch.pcg(rhs, np.zeros(2 * Vi), atol=1e-11, maxiter=200)
+    assert err <= 1e-11 and k > 0
+    resid = S @ sol - rhs
+    assert np.abs(resid[:Vi]).max() < 1e-9  # vertex-sum block: exact elimination
+    assert np.abs(resid[Vi:]).max() < 1e-10
+    assert np.allclose(sol, y, atol=1e-6)
+
+
+def test_midpoint_layout_refuses_a_mesh_in_pieces():
+    s = surface("cap")
+    f2 = np.vstack([s.faces, s.faces + len(s.vertices)])
+    v2 = np.vstack([s.vertices, s.vertices + 100.0])
+    ang = meshops.corner_angles(v2, f2)
+    with pytest.raises(ParameterError, match="several pieces"):
+        midpoint_layout(v2, f2, ang)

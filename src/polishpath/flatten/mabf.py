@@ -49,8 +49,39 @@ def target_angles(vertices: np.ndarray, faces: np.ndarray, min_angle: float) -> 
     beta : (3F,) float64
         Clamped 3D angles, radians, corner order.
     """
-    beta = meshops.corner_angles(vertices, faces).ravel()
+    beta = _corner_angles(vertices, faces)
     return np.clip(beta, min_angle, np.pi - 2.0 * min_angle)
+
+
+def _corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    # meshops.corner_angles in one numba pass (the same atan2(|a x b|, a.b) formula):
+    # ~8x faster on big meshes, and this is on MABF's clock
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    if v.shape[1] != 3:
+        return meshops.corner_angles(v, faces).ravel()
+    return _kernel_corner_angles(v, np.ascontiguousarray(faces, dtype=np.int64))
+
+
+@numba.njit(cache=True)
+def _kernel_corner_angles(v, f):  # pragma: no cover - numba
+    out = np.empty(3 * f.shape[0])
+    e = np.empty((3, 3))  # e[k] = edge from corner k to corner k+1
+    for i in range(f.shape[0]):
+        for k in range(3):
+            a = f[i, k]
+            b = f[i, (k + 1) % 3]
+            for j in range(3):
+                e[k, j] = v[b, j] - v[a, j]
+        cx = e[0, 1] * e[2, 2] - e[0, 2] * e[2, 1]
+        cy = e[0, 2] * e[2, 0] - e[0, 0] * e[2, 2]
+        cz = e[0, 0] * e[2, 1] - e[0, 1] * e[2, 0]
+        cr = np.sqrt(cx * cx + cy * cy + cz * cz)
+        for k in range(3):
+            # angle at corner k between e[k] and -e[k-1]
+            km = (k + 2) % 3
+            d = -(e[k, 0] * e[km, 0] + e[k, 1] * e[km, 1] + e[k, 2] * e[km, 2])
+            out[3 * i + k] = np.arctan2(cr, d)
+    return out
 
 
 def constraint_residuals(t: CornerTables, alpha: np.ndarray) -> dict[str, np.ndarray]:
@@ -525,7 +556,7 @@ def mabf_angles(
     f = np.asarray(faces, dtype=np.int64)
     F = len(f)
     t = corner_tables(len(v), f)
-    beta_raw = meshops.corner_angles(v, f).ravel()
+    beta_raw = _corner_angles(v, f)
     beta = np.clip(beta_raw, min_angle, np.pi - 2.0 * min_angle)
     n_clamped = int(np.count_nonzero(beta != beta_raw))
     if weights == "uniform":
