@@ -91,7 +91,9 @@ def flatten(
         weights drive a sliver towards zero), ``min_angle`` (radians, default 1
         degree), ``tol`` (default 1e-8: largest constraint residual, radians /
         log-sine units; below the ~1e-7 rad precision of angles from float32 STL
-        coordinates), ``max_iter``, ``solver`` ("auto",
+        coordinates), ``opt_tol`` (MABF, default 1e-4 rad: how close to the exact
+        optimum the angles must be before the last steps only restore the
+        constraints; 0 optimises to the end), ``max_iter``, ``solver`` ("auto",
         "cholmod", "superlu"), ``hole_weight`` (energy weight of the virtual
         faces filling holes, default 0.01).
 
@@ -114,7 +116,7 @@ def flatten(
         raise ParameterError(f"Unknown flattening method {method!r}.", f"Use one of: {', '.join(METHODS)}.")
     if layout is not None and layout not in LAYOUTS:
         raise ParameterError(f"Unknown layout {layout!r}.", f"Use one of: {', '.join(LAYOUTS)}.")
-    known = {"weights", "min_angle", "tol", "max_iter", "solver", "hole_weight"}
+    known = {"weights", "min_angle", "tol", "opt_tol", "max_iter", "solver", "hole_weight"}
     bad = set(options) - known
     if bad:
         raise ParameterError(f"Unknown flatten option(s): {', '.join(sorted(bad))}.", f"Known options: {', '.join(sorted(known))}.")
@@ -155,13 +157,15 @@ def flatten(
             weights = options.get("weights", "auto")
             if weights not in ("auto", "uniform", "inverse_square"):
                 raise ParameterError(f"Unknown MABF weights {weights!r}.", "Use 'auto', 'uniform' or 'inverse_square'.")
-            kw = dict(min_angle=min_angle, tol=tol, max_iter=int(options.get("max_iter", 50)), face_weight=fw, solver=solver)
+            opt_tol = float(options.get("opt_tol", 1e-4))
+            kw = dict(min_angle=min_angle, tol=tol, max_iter=int(options.get("max_iter", 50)), face_weight=fw, solver=solver,
+                      opt_tol=opt_tol)
             used = "uniform" if weights == "auto" else weights
             angles, res, st = mabf_angles(vf, ff, weights=used, stop_on_damping=(weights == "auto"), **kw)
             if st.get("stopped_on_damping"):
                 used = "inverse_square"
                 angles, res, st = mabf_angles(vf, ff, weights=used, **kw)
-            params.update(weights=used, solver=solver)
+            params.update(weights=used, solver=solver, opt_tol=opt_tol)
             extra["factorizations"] = float(st["factorizations"])
         else:
             from .abf import abf_angles

@@ -487,6 +487,7 @@ def mabf_angles(
     solver: str = "auto",
     linear: str = "auto",
     stall: int = 100,
+    opt_tol: float = 1e-4,
 ) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
     """Solve the MABF angle problem.
 
@@ -529,6 +530,18 @@ def mabf_angles(
         multipliers and stopped at the accuracy the Newton step needs. ``"direct"``
         forms and factorises ``S`` itself (2 Vi x 2 Vi, 2x2-coupled: ~8x the cost of
         one scalar factorisation).
+    opt_tol : float
+        ``linear="pcg"`` only. Optimality tolerance, radians: once the next
+        optimisation step is predicted (from the last two) to move no angle by more
+        than ``opt_tol`` in all (the next step times the geometric sum of the observed
+        contraction), the remaining steps only restore the constraints
+        (minimum-norm projection onto the linearised constraints, the multipliers
+        kept), which converges quadratically and skips the re-solve for the
+        multipliers after each relinearisation (most of the late steps' work). The
+        angles then differ from the exact optimum by about ``opt_tol`` at most (the
+        mean angle error agrees to 5 digits on every shared mesh; face.obj x4: 29
+        instead of 34 CG iterations, 1.3x faster on lion); ``0`` keeps optimising
+        until the constraints converge.
     stop_on_damping : bool
         Return at once (``stats["stopped_on_damping"] = True``) when a step had to be
         shortened to keep an angle positive: with uniform weights that means slivers
@@ -590,7 +603,7 @@ def mabf_angles(
     if linear == "pcg":
         try:
             return _mabf_pcg(t, beta, dinv, alpha, dict(stats), tol=tol, max_iter=max_iter, min_angle=min_angle,
-                             stop_on_damping=stop_on_damping, solver=solver, t0=t0, stall=stall)
+                             stop_on_damping=stop_on_damping, solver=solver, t0=t0, stall=stall, opt_tol=opt_tol)
         except _PcgStalled:
             stats["pcg_stalled"] = True  # fall back to the direct solve below, from the start
     stats["linear"] = "direct"
@@ -691,12 +704,18 @@ def _kernel_damped(alpha, delta, floor):  # pragma: no cover - numba
     return s
 
 
-def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_damping, solver, t0, stall):
+def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_damping, solver, t0, stall, opt_tol):
     """Inexact Newton on the wheel condition; each linearised QP's interior-vertex
     system ``S = J2 P J2^T`` is solved matrix-free by :meth:`_Schur.pcg` (exact
     elimination with ``B P B^T``, constant; CG preconditioned by ``Jw P Jw^T`` at the
     3D angles). The multipliers of the previous step warm-start the next solve, and
-    each solve stops at the accuracy the Newton step needs."""
+    each solve stops at the accuracy the Newton step needs.
+
+    Why the projection steps (see ``opt_tol``): after a relinearisation the
+    warm-started system's residual is ``|J_k - J_(k-1)| |lambda|``, set by the
+    multipliers' size, not by the constraint residual (face.obj x4, last step:
+    1.2e-3 against 8.1e-7), so a late optimisation step costs ~6 decades of CG to
+    move the angles by ~1e-5 rad; a projection starts from the constraint residual."""
     F, Vi = t.n_faces, t.n_interior
     ts = time.perf_counter()
     sch = _Schur(t, dinv, solver)
@@ -709,36 +728,48 @@ def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_
     res = sch.residuals(alpha)
     worst = max(float(np.abs(r).max()) for r in res.values())
     pcg_total = 0
-    stats["trace"] = []  # (largest residual before the step, PCG tolerance, PCG iterations)
+    stats["trace"] = []  # (largest residual before the step, PCG tolerance, PCG iterations, kind)
     stats["seconds_setup"] = time.perf_counter() - ts
     it = 0
     step = 0.0
     k_r1 = None
     rate = None
+    project = False  # optimality reached: only restore the constraints
+    sizes: list[float] = []  # largest angle change of each optimisation step
     for it in range(1, max_iter + 1):
         cot = 1.0 / np.tan(alpha)
         sch.set_jacobian(cot, refactor_m=(it == 1))
         if it == 1:
             stats["factorizations"] += 1
-        rhs = sch.j(alpha - x0) - np.concatenate([res["vertex"], res["wheel"]])
-        if k_r1 is None:
-            # rhs[:Vi] = 2 pi - B x0 whatever alpha is: its K solve is made once
-            k_r1 = sch.solve_K(rhs[:Vi])
-        # forcing term: the linear residual adds to the next constraint residual, so
-        # ask for a tenth of what the next one will be: ~ worst^2 (Newton's rate) or
-        # ~ rate * worst with the contraction the last step showed, whichever is
-        # larger (solving further is wasted: the step's own error dominates), and
-        # tol / 4 when that would already finish
-        guess = worst * worst if rate is None else max(worst * worst, 0.1 * rate * worst)
-        if rate is not None and rate * worst < tol:
-            guess = 0.0
-        atol = max(0.25 * tol, min(0.1 * worst, guess))
-        lam, k, err = sch.pcg(rhs, lam, atol, maxiter=stall, k_r1=k_r1)
-        if err > atol:
-            raise _PcgStalled()
+        if project:
+            # minimum-norm correction onto the linearised constraints: S mu = -c(alpha);
+            # the next residual is second order in the correction
+            rhs = -np.concatenate([res["vertex"], res["wheel"]])
+            atol = max(0.25 * tol, min(0.1 * worst, 0.1 * worst * worst))
+            mu, k, err = sch.pcg(rhs, np.zeros(2 * Vi), atol, maxiter=stall)
+            if err > atol:
+                raise _PcgStalled()
+            new = alpha + sch.jt_proj(mu)
+        else:
+            rhs = sch.j(alpha - x0) - np.concatenate([res["vertex"], res["wheel"]])
+            if k_r1 is None:
+                # rhs[:Vi] = 2 pi - B x0 whatever alpha is: its K solve is made once
+                k_r1 = sch.solve_K(rhs[:Vi])
+            # forcing term: the linear residual adds to the next constraint residual, so
+            # ask for a tenth of what the next one will be: ~ worst^2 (Newton's rate) or
+            # ~ rate * worst with the contraction the last step showed, whichever is
+            # larger (solving further is wasted: the step's own error dominates), and
+            # tol / 4 when that would already finish
+            guess = worst * worst if rate is None else max(worst * worst, 0.1 * rate * worst)
+            if rate is not None and rate * worst < tol:
+                guess = 0.0
+            atol = max(0.25 * tol, min(0.1 * worst, guess))
+            lam, k, err = sch.pcg(rhs, lam, atol, maxiter=stall, k_r1=k_r1)
+            if err > atol:
+                raise _PcgStalled()
+            new = x0 + sch.jt_proj(lam)
         pcg_total += k
-        stats["trace"].append((worst, atol, k))
-        new = x0 + sch.jt_proj(lam)
+        stats["trace"].append((worst, atol, k, "project" if project else "optimise"))
         if not np.all(np.isfinite(new)):
             raise FlatteningError(
                 "The MABF solve produced non-finite angles.",
@@ -760,6 +791,16 @@ def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_
         rate = min(1.0, worst / prev) if prev > 0 else None
         if worst < tol:
             break
+        if project:
+            project = worst < 0.5 * prev  # a projection that does not converge: optimise again
+        else:
+            sizes.append(step)
+            # what further optimisation steps would still move the angles: the next step
+            # predicted from the contraction of the last two, summed geometrically
+            if len(sizes) >= 2 and scale == 1.0 and sizes[-2] > 0:
+                q = step / sizes[-2]
+                project = q < 0.5 and step * q / (1.0 - q) < opt_tol
+    stats["projection_steps"] = sum(1 for tr in stats["trace"] if tr[3] == "project")
     stats.update(
         iterations=it,
         pcg_iterations=pcg_total,
