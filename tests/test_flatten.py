@@ -458,8 +458,10 @@ def test_midpoint_layout_refuses_a_mesh_in_pieces():
     f2 = np.vstack([s.faces, s.faces + len(s.vertices)])
     v2 = np.vstack([s.vertices, s.vertices + 100.0])
     ang = meshops.corner_angles(v2, f2)
-    with pytest.raises(ParameterError, match="several pieces"):
+    with pytest.raises(MultipleComponentsError, match="several pieces"):
         midpoint_layout(v2, f2, ang)
+    with pytest.raises(ParameterError, match="seed_face"):
+        midpoint_layout(s.vertices, s.faces, meshops.corner_angles(s.vertices, s.faces), seed_face=len(s.faces))
 
 
 @pytest.mark.parametrize("opt_tol", [1e-4, 1e-3])
@@ -477,3 +479,41 @@ def test_mabf_projection_steps_keep_the_constraints_and_stay_near_the_optimum(op
     assert np.abs(fast - full).max() < 3 * opt_tol
     e0, e1 = np.abs(full - beta).mean(), np.abs(fast - beta).mean()
     assert abs(e1 - e0) < 1e-3 * e0
+
+
+def test_strip_without_interior_vertices_flattens():
+    """A strip of triangles has no interior vertex: only the triangle sums constrain it."""
+    n = 12
+    x = np.arange(n, dtype=float)
+    top = np.stack([x, np.ones(n), 0.1 * x**2], 1)
+    bot = np.stack([x, np.zeros(n), 0.1 * x**2], 1)
+    v = np.vstack([bot, top])
+    f = np.concatenate([[[i, i + 1, n + i], [i + 1, n + i + 1, n + i]] for i in range(n - 1)])
+    fl = flatten(Surface(v, f, name="strip"), "mabf")
+    assert fl.metrics["flipped_faces"] == 0 and fl.metrics["converged"] == 1.0
+    assert fl.metrics["max_triangle_residual"] < 1e-12
+    # a developable strip (a parabolic cylinder) flattens isometrically
+    assert np.allclose(edge_lengths(fl.uv, f), edge_lengths(v, f), rtol=1e-6)
+
+
+def test_stall_in_a_projection_step_goes_back_to_optimising(monkeypatch):
+    """A projection CG that stalls must not throw the solve away: the solver returns to
+    optimisation steps (warm-started) and still meets the tolerance."""
+    from polishpath.flatten import mabf
+
+    real = mabf._Schur.pcg
+    stalls = []
+
+    def flaky(self, rhs, x0, atol, maxiter, k_r1=None):
+        if not np.any(x0) and k_r1 is None and not stalls:  # the first projection solve
+            stalls.append(1)
+            x, k, err = real(self, rhs, x0, atol, 1, k_r1)
+            return x, k, max(err, 2 * atol)
+        return real(self, rhs, x0, atol, maxiter, k_r1)
+
+    monkeypatch.setattr(mabf._Schur, "pcg", flaky)
+    s = surface("saddle")
+    ang, res, st = mabf.mabf_angles(s.vertices, s.faces, tol=1e-10, opt_tol=1e-3)
+    assert stalls and any(tr[3] == "project (stalled)" for tr in st["trace"])
+    assert st["linear"] == "pcg" and st["converged"]
+    assert max(np.abs(r).max() for r in res.values()) < 1e-10

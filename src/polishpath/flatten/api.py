@@ -165,7 +165,9 @@ def flatten(
             if st.get("stopped_on_damping"):
                 used = "inverse_square"
                 angles, res, st = mabf_angles(vf, ff, weights=used, **kw)
-            params.update(weights=used, solver=solver, opt_tol=opt_tol)
+            params.update(weights=used, solver=solver, linear=st.get("linear", "none"))
+            if st.get("linear") == "pcg":
+                params["opt_tol"] = opt_tol  # the direct solve (filled holes) optimises to the end
             extra["factorizations"] = float(st["factorizations"])
         else:
             from .abf import abf_angles
@@ -174,6 +176,7 @@ def flatten(
             params.update(weights="inverse_square")
         timings["angles"] = time.perf_counter() - t0
         extra["iterations"] = float(st["iterations"])
+        extra["converged"] = float(st.get("converged", True))
         worst = max(st["max_triangle_residual"], st["max_vertex_residual"], st["max_wheel_residual"])
         if not np.isfinite(worst) or worst > 1e-3:
             raise FlatteningError(

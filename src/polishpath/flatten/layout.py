@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import meshops
-from ..errors import ParameterError
+from ..errors import MultipleComponentsError, ParameterError
 from .linalg import factor_spd
 from .topology import half_edge_twin_slots
 
@@ -166,10 +166,13 @@ def midpoint_layout(
     F = len(f)
     twin_face, twin_slot = half_edge_twin_slots(f)
     seed = centre_face(f, twin_face) if seed_face is None else int(seed_face)
+    if not 0 <= seed < F:
+        raise ParameterError(f"seed_face {seed} is not a face index (the mesh has {F} faces).",
+                             "Pass an index in [0, number of faces) or leave seed_face out.")
     order, pred = _bfs_faces(twin_face, np.array([seed], dtype=np.int64))
     if len(order) < F:
-        raise ParameterError("The mesh is in several pieces; the midpoint layout needs one connected patch.",
-                             "Flatten each component separately (load_surface(..., component='largest')).")
+        raise MultipleComponentsError("The mesh is in several pieces; the midpoint layout needs one connected patch.",
+                                      "Flatten each component separately (load_surface(..., component='largest')).")
     # "propagate" needs the 3D area of the seed triangle only (it fixes the scale)
     area3d = meshops.face_areas(v, f) if sizes == "area" else np.zeros(F)
     if sizes != "area":

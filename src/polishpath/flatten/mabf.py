@@ -554,10 +554,13 @@ def mabf_angles(
     residuals : dict of str -> ndarray
         See :func:`constraint_residuals`.
     stats : dict
-        ``iterations``, ``factorizations``, ``n_interior``, ``schur_size``, ``schur_nnz``
-        (direct), ``pcg_iterations``, ``trace`` (per step: largest residual, PCG
-        tolerance, PCG iterations) and ``backend`` (pcg), ``clamped_corners``, residual
-        maxima and seconds spent.
+        ``iterations``, ``converged`` (largest residual below ``tol``),
+        ``factorizations``, ``n_interior``, ``schur_size``, ``schur_nnz`` (direct),
+        ``pcg_iterations``, ``projection_steps``, ``trace`` (per step: largest
+        residual, CG tolerance, CG iterations, ``"optimise"`` or ``"project"``) and
+        ``backend`` (pcg), ``pcg_stalled`` (pcg fell back to direct),
+        ``clamped_corners``, ``last_step`` (largest angle change of the last step,
+        rad), residual maxima and seconds spent.
 
     Raises
     ------
@@ -588,7 +591,11 @@ def mabf_angles(
         # no interior vertex: only the triangle sums; exact projection
         alpha = beta + dinv * np.repeat((np.pi - beta.reshape(-1, 3).sum(1)) / dinv.reshape(-1, 3).sum(1), 3)
         res = constraint_residuals(t, alpha)
-        stats.update(iterations=1, seconds=time.perf_counter() - t0)
+        stats.update(
+            iterations=1, converged=True, last_step=float(np.abs(alpha - beta).max()),
+            max_triangle_residual=float(np.abs(res["triangle"]).max()), max_vertex_residual=0.0,
+            max_wheel_residual=0.0, seconds=time.perf_counter() - t0,
+        )
         return alpha.reshape(F, 3), res, stats
 
     if linear not in ("auto", "pcg", "direct"):
@@ -677,6 +684,7 @@ def mabf_angles(
             break
     stats.update(
         iterations=it,
+        converged=bool(worst < tol),
         last_step=step,
         max_triangle_residual=float(np.abs(res["triangle"]).max()),
         max_vertex_residual=float(np.abs(res["vertex"]).max()),
@@ -747,19 +755,25 @@ def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_
             rhs = -np.concatenate([res["vertex"], res["wheel"]])
             atol = max(0.25 * tol, min(0.1 * worst, 0.1 * worst * worst))
             mu, k, err = sch.pcg(rhs, np.zeros(2 * Vi), atol, maxiter=stall)
+            pcg_total += k
             if err > atol:
-                raise _PcgStalled()
+                # a projection CG that stalls: go back to optimisation steps, which
+                # warm-start from the multipliers (and fall back to "direct" if they stall)
+                stats["trace"].append((worst, atol, k, "project (stalled)"))
+                project = False
+                continue
             new = alpha + sch.jt_proj(mu)
+            k = 0  # counted above
         else:
             rhs = sch.j(alpha - x0) - np.concatenate([res["vertex"], res["wheel"]])
             if k_r1 is None:
                 # rhs[:Vi] = 2 pi - B x0 whatever alpha is: its K solve is made once
                 k_r1 = sch.solve_K(rhs[:Vi])
             # forcing term: the linear residual adds to the next constraint residual, so
-            # ask for a tenth of what the next one will be: ~ worst^2 (Newton's rate) or
-            # ~ rate * worst with the contraction the last step showed, whichever is
-            # larger (solving further is wasted: the step's own error dominates), and
-            # tol / 4 when that would already finish
+            # ask for about what the next one will be anyway: worst^2 (Newton's rate) or
+            # a tenth of rate * worst (the contraction the last step showed), whichever
+            # is larger (solving further is wasted: the step's own error dominates),
+            # never more than worst / 10, and tol / 4 when the step will finish
             guess = worst * worst if rate is None else max(worst * worst, 0.1 * rate * worst)
             if rate is not None and rate * worst < tol:
                 guess = 0.0
@@ -801,6 +815,7 @@ def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_
                 q = step / sizes[-2]
                 project = q < 0.5 and step * q / (1.0 - q) < opt_tol
     stats["projection_steps"] = sum(1 for tr in stats["trace"] if tr[3] == "project")
+    stats["converged"] = bool(worst < tol)
     stats.update(
         iterations=it,
         pcg_iterations=pcg_total,
