@@ -542,8 +542,8 @@ def mabf_angles(
         kept), which converges quadratically and skips the re-solve for the
         multipliers after each relinearisation (most of the late steps' work). The
         angles then differ from the exact optimum by about ``opt_tol`` at most (the
-        mean angle error agrees to 5 digits on every shared mesh; face.obj x4: 29
-        instead of 34 CG iterations, 1.3x faster on lion); ``0`` keeps optimising
+        mean angle error agrees to 5 digits on every shared mesh; face.obj x4: 26
+        instead of 33 CG iterations, 1.2-1.4x faster on lion and camelhead); ``0`` keeps optimising
         until the constraints converge.
     stop_on_damping : bool
         Return at once (``stats["stopped_on_damping"] = True``) when a step had to be
