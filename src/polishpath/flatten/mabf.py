@@ -109,42 +109,13 @@ def constraint_residuals(t: CornerTables, alpha: np.ndarray) -> dict[str, np.nda
 
 
 @numba.njit(cache=True)
-def _kernel_s(y1, y2, rows, cot, dinv, dsum, out1, out2):  # pragma: no cover - numba
-    # out += J2 P J2^T y, face by face; J2 = [B; Jw]. Corner a of a face gets
-    # y1 of its own vertex, +cot_a * y2 of the vertex at corner a-1 (a is that
-    # vertex's "next" corner) and -cot_a * y2 of the vertex at corner a+1.
-    z = np.empty(3)
-    for f in range(rows.shape[0]):
-        for a in range(3):
-            v = 0.0
-            r = rows[f, a]
-            if r >= 0:
-                v += y1[r]
-            r = rows[f, (a + 2) % 3]
-            if r >= 0:
-                v += cot[3 * f + a] * y2[r]
-            r = rows[f, (a + 1) % 3]
-            if r >= 0:
-                v -= cot[3 * f + a] * y2[r]
-            z[a] = v * dinv[3 * f + a]
-        m = (z[0] + z[1] + z[2]) / dsum[f]
-        for a in range(3):
-            z[a] -= dinv[3 * f + a] * m
-        for a in range(3):
-            r = rows[f, a]
-            if r >= 0:
-                out1[r] += z[a]
-                a1 = (a + 1) % 3
-                a2 = (a + 2) % 3
-                out2[r] += cot[3 * f + a1] * z[a1] - cot[3 * f + a2] * z[a2]
-
-
-@numba.njit(cache=True)
 def _kernel_s_wheel(x, rows, cot, dinv, dsum, out1, out2):  # pragma: no cover - numba
-    # out1 += C x, out2 += M x: _kernel_s with y1 = 0 (no vertex-sum part). The
-    # project-and-scatter tail is repeated in the three kernels on purpose: moving it
-    # into a shared njit helper made these kernels 7-10x slower (not inlined: one
-    # call with array arguments per face; measured on face.obj x4, 3.5 -> 28 ms)
+    # out1 += C x, out2 += M x, face by face (C = B P Jw^T, M = Jw P Jw^T). Corner a
+    # of a face gets +cot_a * x of the vertex at corner a-1 (a is that vertex's "next"
+    # corner) and -cot_a * x of the vertex at corner a+1. The project-and-scatter tail
+    # is repeated in _kernel_s_vertex on purpose: moving it into a shared njit helper
+    # made both kernels 7-10x slower (not inlined: one call with array arguments per
+    # face; measured on face.obj x4, 3.5 -> 28 ms)
     z = np.empty(3)
     for f in range(rows.shape[0]):
         for a in range(3):
@@ -168,7 +139,7 @@ def _kernel_s_wheel(x, rows, cot, dinv, dsum, out1, out2):  # pragma: no cover -
 
 @numba.njit(cache=True)
 def _kernel_s_vertex(y, rows, cot, dinv, dsum, out2):  # pragma: no cover - numba
-    # out2 += C^T y: the wheel rows of _kernel_s with y2 = 0
+    # out2 += C^T y: corner a of a face gets y of its own vertex, then the same tail
     z = np.empty(3)
     for f in range(rows.shape[0]):
         for a in range(3):
@@ -404,15 +375,12 @@ class _Schur:
         _kernel_j(np.ascontiguousarray(x), self.rows, self.cot, out[: self.Vi], out[self.Vi :])
         return out
 
-    def _apply(self, y1: np.ndarray, y2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out1 = np.zeros(self.Vi)
-        out2 = np.zeros(self.Vi)
-        _kernel_s(y1, y2, self.rows, self.cot, self.dinv, self.dsum, out1, out2)
-        return out1, out2
-
     def matvec(self, y: np.ndarray) -> np.ndarray:
-        """``S y``."""
-        return np.concatenate(self._apply(y[: self.Vi], y[self.Vi :]))
+        """``S y`` from the products :meth:`pcg` uses (for checking them; CG itself
+        only needs the Schur complement)."""
+        y1, y2 = y[: self.Vi], y[self.Vi :]
+        cy2, my2 = self._wheel(y2)
+        return np.concatenate([self.K @ y1 + cy2, self._ct(y1) + my2])
 
     def residuals(self, alpha: np.ndarray) -> dict[str, np.ndarray]:
         tri = np.empty(self.F)
@@ -594,11 +562,8 @@ def mabf_angles(
         # no interior vertex: only the triangle sums; exact projection
         alpha = beta + dinv * np.repeat((np.pi - beta.reshape(-1, 3).sum(1)) / dinv.reshape(-1, 3).sum(1), 3)
         res = constraint_residuals(t, alpha)
-        stats.update(
-            iterations=1, converged=True, last_step=float(np.abs(alpha - beta).max()),
-            max_triangle_residual=float(np.abs(res["triangle"]).max()), max_vertex_residual=0.0,
-            max_wheel_residual=0.0, seconds=time.perf_counter() - t0,
-        )
+        stats.update(iterations=1, last_step=float(np.abs(alpha - beta).max()), **_residual_stats(res, tol),
+                     seconds=time.perf_counter() - t0)
         return alpha.reshape(F, 3), res, stats
 
     if linear not in ("auto", "pcg", "direct"):
@@ -661,23 +626,7 @@ def mabf_angles(
         jt2 = J2.T @ lam2
         lam1 = (r1 - a1(dinv * jt2)) / dsum
         new = beta + dinv * (a1t(lam1) + jt2)
-        if not np.all(np.isfinite(new)):
-            raise FlatteningError(
-                "The MABF solve produced non-finite angles.",
-                "The mesh may have degenerate faces; repair it or try method='lscm'.",
-            )
-        delta = new - alpha
-        # damping: keep every angle inside (floor, pi - floor) so ln sin and cot stay
-        # defined; the step is shortened, not clipped per corner, so the linear
-        # constraints stay satisfied.
-        scale = _damped(alpha, delta, min_angle)
-        if scale < 1.0:
-            stats["damped_steps"] = stats.get("damped_steps", 0) + 1
-            if stop_on_damping:
-                stats["stopped_on_damping"] = True
-            scale = max(scale * 0.9, 1e-3)
-        step = float(np.abs(delta).max()) * scale
-        alpha = alpha + scale * delta
+        alpha, _, step = _take_step(alpha, new, min_angle, stop_on_damping, stats)
         res = constraint_residuals(t, alpha)
         if stats.get("stopped_on_damping"):
             break
@@ -685,21 +634,42 @@ def mabf_angles(
         ratio = worst / prev if np.isfinite(prev) and prev > 0 else 0.0
         if worst < tol:
             break
-    stats.update(
-        iterations=it,
-        converged=bool(worst < tol),
-        last_step=step,
-        max_triangle_residual=float(np.abs(res["triangle"]).max()),
-        max_vertex_residual=float(np.abs(res["vertex"]).max()),
-        max_wheel_residual=float(np.abs(res["wheel"]).max()),
-        seconds=time.perf_counter() - t0,
-    )
+    stats.update(iterations=it, last_step=step, **_residual_stats(res, tol), seconds=time.perf_counter() - t0)
     return alpha.reshape(F, 3), res, stats
 
 
 def _damped(alpha: np.ndarray, delta: np.ndarray, min_angle: float) -> float:
     """Largest step length <= 1 keeping every angle inside (floor, pi - floor), floor = min_angle / 4."""
     return float(_kernel_damped(np.ascontiguousarray(alpha), np.ascontiguousarray(delta), 0.25 * min_angle))
+
+
+def _take_step(alpha: np.ndarray, new: np.ndarray, min_angle: float, stop_on_damping: bool,
+               stats: dict) -> tuple[np.ndarray, float, float]:
+    """Move from ``alpha`` toward the solved angles ``new``, damped so every angle stays
+    inside (floor, pi - floor) and ln sin and cot stay defined. The step is shortened,
+    not clipped per corner, so the linear constraints stay satisfied. Returns the new
+    angles, the step length used (<= 1) and the largest angle change (rad); counts
+    damped steps in ``stats`` (and flags ``stopped_on_damping`` if asked)."""
+    if not np.all(np.isfinite(new)):
+        raise FlatteningError(
+            "The MABF solve produced non-finite angles.",
+            "The mesh may have degenerate faces; repair it or try method='lscm'.",
+        )
+    delta = new - alpha
+    scale = _damped(alpha, delta, min_angle)
+    if scale < 1.0:
+        stats["damped_steps"] = stats.get("damped_steps", 0) + 1
+        if stop_on_damping:
+            stats["stopped_on_damping"] = True
+        scale = max(scale * 0.9, 1e-3)
+    return alpha + scale * delta, scale, float(np.abs(delta).max()) * scale
+
+
+def _residual_stats(res: dict[str, np.ndarray], tol: float) -> dict:
+    """Largest residual of each constraint family, and whether all are below ``tol``."""
+    out = {f"max_{k}_residual": float(np.abs(r).max()) if len(r) else 0.0 for k, r in res.items()}
+    out["converged"] = bool(max(out.values()) < tol)
+    return out
 
 
 @numba.njit(cache=True)
@@ -789,20 +759,7 @@ def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_
             new = x0 + sch.jt_proj(lam)
         pcg_total += k
         stats["trace"].append((worst, atol, k, "project" if project else "optimise"))
-        if not np.all(np.isfinite(new)):
-            raise FlatteningError(
-                "The MABF solve produced non-finite angles.",
-                "The mesh may have degenerate faces; repair it or try method='lscm'.",
-            )
-        delta = new - alpha
-        scale = _damped(alpha, delta, min_angle)
-        if scale < 1.0:
-            stats["damped_steps"] = stats.get("damped_steps", 0) + 1
-            if stop_on_damping:
-                stats["stopped_on_damping"] = True
-            scale = max(scale * 0.9, 1e-3)
-        step = float(np.abs(delta).max()) * scale
-        alpha = alpha + scale * delta
+        alpha, scale, step = _take_step(alpha, new, min_angle, stop_on_damping, stats)
         res = sch.residuals(alpha)
         if stats.get("stopped_on_damping"):
             break
@@ -820,14 +777,6 @@ def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_
                 q = step / sizes[-2]
                 project = q < 0.5 and step * q / (1.0 - q) < opt_tol
     stats["projection_steps"] = sum(1 for tr in stats["trace"] if tr[3] == "project")
-    stats["converged"] = bool(worst < tol)
-    stats.update(
-        iterations=it,
-        pcg_iterations=pcg_total,
-        last_step=step,
-        max_triangle_residual=float(np.abs(res["triangle"]).max()),
-        max_vertex_residual=float(np.abs(res["vertex"]).max()),
-        max_wheel_residual=float(np.abs(res["wheel"]).max()),
-        seconds=time.perf_counter() - t0,
-    )
+    stats.update(iterations=it, pcg_iterations=pcg_total, last_step=step, **_residual_stats(res, tol),
+                 seconds=time.perf_counter() - t0)
     return alpha.reshape(F, 3), res, stats
