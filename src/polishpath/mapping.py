@@ -94,7 +94,7 @@ def _seg_dist2(px, py, ax, ay, bx, by):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True)
-def _locate_kernel(pts, uv, faces, valid, heights, start, tris, x0, y0, h, nx, ny, tol):  # pragma: no cover
+def _locate_kernel(pts, uv, faces, valid, heights, start, tris, x0, y0, h, nx, ny, tol, eps):  # pragma: no cover
     n = pts.shape[0]
     fid = np.full(n, -1, dtype=np.int64)
     bary = np.zeros((n, 3))
@@ -125,7 +125,7 @@ def _locate_kernel(pts, uv, faces, valid, heights, start, tris, x0, y0, h, nx, n
             li = ((xj * ym - xm * yj) + (yj - ym) * px + (xm - xj) * py) / a2
             lj = ((xm * yi - xi * ym) + (ym - yi) * px + (xi - xm) * py) / a2
             lm = 1.0 - li - lj
-            if li >= 0.0 and lj >= 0.0 and lm >= 0.0:
+            if li >= -eps and lj >= -eps and lm >= -eps:
                 hh = li * heights[i0] + lj * heights[i1] + lm * heights[i2]
                 if hh > best_h:
                     best_h = hh
@@ -199,7 +199,10 @@ def locate_points(
         to the closest point of the nearest triangle.
     heights : (V,) float, optional
         Where triangles overlap in the plane (folds of a projection), the one
-        whose interpolated height is largest wins; None: the first found.
+        whose interpolated height is largest wins, a point on the edge of a
+        triangle counting as inside it (area coordinates >= -1e-12), so that
+        round-off cannot hand a point on the edge of the top layer to the layer
+        below; None: the first triangle found that contains the point exactly.
 
     Returns
     -------
@@ -230,7 +233,8 @@ def locate_points(
     ny = int(ext[1] / h) + 1
     start, tris = _grid_fill(lo, hi, float(x0), float(y0), h, nx, ny)
     hts = np.zeros(len(uv)) if heights is None else np.ascontiguousarray(heights, dtype=np.float64)
-    return _locate_kernel(pts, uv, faces, valid, hts, start, tris, float(x0), float(y0), h, nx, ny, float(tol))
+    eps = 0.0 if heights is None else 1e-12
+    return _locate_kernel(pts, uv, faces, valid, hts, start, tris, float(x0), float(y0), h, nx, ny, float(tol), eps)
 
 
 # --------------------------------------------------------------------------------------
