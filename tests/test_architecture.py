@@ -2,13 +2,13 @@
 
 surface -> flatten -> plan -> map -> smooth -> export / simulate / report
 
-Each stage may import the core (types, errors, meshops, progress, _version) and
+Each stage may import the core (types, errors, meshops, pathops, progress, _version) and
 stages upstream of it (earlier in ORDER), never a stage downstream: a stage
 that needs a later stage's result is wrong about where it sits in the flow.
 Stages exchange plain data (the dataclasses of polishpath.types).
 
 How to fix a failure: move the shared code into polishpath/meshops.py (mesh
-maths) or polishpath/types.py (data), or pass the data in from
+maths), polishpath/pathops.py (path maths) or polishpath/types.py (data), or pass the data in from
 polishpath/pipeline.py, which is the one place allowed to wire stages together.
 """
 
@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
-CORE = {"types", "errors", "meshops", "progress", "fileio", "_version"}
+CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "_version"}
 ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report"]
 # the planner and flattening do not need each other's code either way: both take plain data
 INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces")}

@@ -11,18 +11,15 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from ..pathops import DIRECTION_NAMES, sector_codes, step_starts
 from ..types import PlanarPath, Region
-from .dwell import DIR_NAMES, uv_to_grid
+from .dwell import uv_to_grid
 
 
 def _segments(uv: np.ndarray, pieces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Start index, end index and piece id of every segment that lies within a piece."""
-    n = len(uv)
-    pieces = np.asarray([0, n] if pieces is None else pieces, dtype=np.int64)
-    a = np.arange(max(n - 1, 0))
-    piece_of = np.searchsorted(pieces, a, side="right") - 1
-    keep = (a + 1) < pieces[np.minimum(piece_of + 1, len(pieces) - 1)]
-    return a[keep], a[keep] + 1, piece_of[keep]
+    a, piece = step_starts(len(uv), pieces)
+    return a, a + 1, piece
 
 
 def count_crossings(uv: np.ndarray, pieces=None) -> int:
@@ -90,9 +87,7 @@ def direction_shares(uv: np.ndarray, pieces=None, rotation: float = 0.0) -> np.n
     a, b, _ = _segments(np.asarray(uv, dtype=np.float64), pieces)
     if len(a) == 0:
         return np.zeros(8)
-    d = uv[b] - uv[a]
-    ang = np.arctan2(d[:, 1], d[:, 0]) - rotation
-    k = np.round(ang / (np.pi / 4)).astype(np.int64) % 8
+    k = sector_codes(uv[b] - uv[a], rotation)
     return np.bincount(k, minlength=8) / len(k)
 
 
@@ -170,7 +165,7 @@ def path_metrics(path: PlanarPath, region: Region | None = None) -> dict:
     g = uv_to_grid(uv, 1.0, np.zeros(2), path.rotation)  # grid frame, mm
     d = g[b] - g[a]
     ang = np.arctan2(d[:, 1], d[:, 0]) if len(a) else np.zeros(0)
-    dk = np.round(ang / (np.pi / 4)).astype(np.int64) % 8
+    dk = sector_codes(d)
     shares = np.bincount(dk, minlength=8) / max(len(dk), 1)
 
     # turns between consecutive steps of the same piece
@@ -204,7 +199,7 @@ def path_metrics(path: PlanarPath, region: Region | None = None) -> dict:
         "step_max": float(steps.max()) if len(steps) else 0.0,
         "step_mean_spacings": float(steps.mean() / path.spacing) if len(steps) else 0.0,
         "step_max_spacings": float(steps.max() / path.spacing) if len(steps) else 0.0,
-        "direction_shares": {name: float(s) for name, s in zip(DIR_NAMES, shares)},
+        "direction_shares": {name: float(s) for name, s in zip(DIRECTION_NAMES, shares)},
         "directions_used": int((shares >= 0.05).sum()),
         "turn_histogram": {str(45 * k): float(s) for k, s in enumerate(turn_hist)},
         "longest_straight_run": int(best),

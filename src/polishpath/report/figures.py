@@ -13,17 +13,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .rundata import (
-    DIRECTION_NAMES,
-    RunData,
-    angle_error_deg,
-    area_distortion,
-    cluster_mesh,
-    decimate_indices,
-    grid_directions,
-    step_lengths,
-    turn_angles_deg,
-)
+from ..pathops import DIRECTION_NAMES, direction_counts, piece_index, step_lengths, turn_angles_deg
+from .rundata import RunData, angle_error_deg, area_distortion, cluster_mesh, decimate_indices
 
 #: display limits (the files keep every point)
 MAX_PATH_POINTS_PNG = 200_000
@@ -50,10 +41,8 @@ def _path_segments(points: np.ndarray, pieces: np.ndarray | None, max_points: in
     n = len(points)
     idx = decimate_indices(n, max_points)
     p = points[idx]
-    piece_of = np.zeros(n, dtype=np.int64)
-    if pieces is not None and len(pieces) > 2:
-        piece_of = np.searchsorted(np.asarray(pieces[1:-1]), np.arange(n), side="right")
-    same = piece_of[idx][1:] == piece_of[idx][:-1]
+    piece_of = piece_index(pieces, n, idx)
+    same = piece_of[1:] == piece_of[:-1]
     seg = np.stack([p[:-1], p[1:]], axis=1)[same]
     order = (idx[:-1][same] / max(n - 1, 1)).astype(float)
     return seg, order, len(idx) < n
@@ -243,7 +232,7 @@ def fig_directions(run: RunData):
     ij = run.get("plan_ij")
     if ij is None:
         return _missing("plan_ij")
-    counts, other = grid_directions(ij, run.get("plan_pieces"))
+    counts, other = direction_counts(ij, run.get("plan_pieces"))
     total = counts.sum()
     if total == 0:
         return "not drawn: the path has no grid steps"

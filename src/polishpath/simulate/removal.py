@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..pathops import piece_offsets
 from ..types import Provenance
 from .rotating import RotatingToolTIF
 from .tif import TIF, DirectionalTIF
@@ -218,7 +219,7 @@ def path_motion_samples(path_xy, dwell_s, step_mm: float, pieces=None, time_mode
         raise ParameterError("path_xy and dwell_s must be finite and dwell times >= 0 s.")
     if not step_mm > 0:
         raise ParameterError(f"step_mm must be positive, got {step_mm}.")
-    pieces = np.asarray([0, len(p)] if pieces is None else pieces, dtype=np.int64)
+    pieces = piece_offsets(pieces, len(p))
     if time_model not in ("segments", "points", "machine"):
         raise ParameterError(f"unknown time_model {time_model!r}.", "Use 'segments', 'points' or 'machine'.")
     if time_model == "points":
@@ -278,7 +279,7 @@ def _machine_samples(p: np.ndarray, t: np.ndarray, step_mm: float, pieces, *, pe
     period_ms = DEFAULT_PERIOD_MS if period_ms is None else float(period_ms)
     chord_tol_mm = DEFAULT_CHORD_TOL_MM if chord_tol_mm is None else float(chord_tol_mm)
     T = period_ms / 1000.0
-    pieces = np.asarray([0, len(p)] if pieces is None else pieces, dtype=np.int64)
+    pieces = piece_offsets(pieces, len(p))
     out_xy, out_t, out_h, out_s, out_l = [], [], [], [], []
     s0 = 0.0
     info = {"period_ms": period_ms, "chord_tol_mm": chord_tol_mm, "max_feed_factor": max_feed_factor,
