@@ -27,6 +27,7 @@ import numpy as np
 
 from . import meshops
 from .errors import MappingError, ParameterError
+from .pathops import piece_offsets, step_lengths, step_mask
 from .types import Flattening, PlanarPath, Provenance, Surface, SurfacePath
 
 __all__ = [
@@ -269,14 +270,8 @@ def surface_step_stats(xyz: np.ndarray, pieces: np.ndarray | None, spacing: floa
     """
     xyz = np.asarray(xyz, dtype=np.float64)
     n = len(xyz)
-    if pieces is None:
-        pieces = np.array([0, n])
-    steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-    keep = np.ones(len(steps), dtype=bool)
-    for b in np.asarray(pieces)[1:-1]:
-        if 0 < b <= len(steps):
-            keep[b - 1] = False
-    steps = steps[keep]
+    pieces = piece_offsets(pieces, n)
+    steps = step_lengths(xyz, pieces)
     s = float(spacing)
     out: dict = {"spacing": s, "n_points": int(n), "n_steps": int(len(steps)), "n_pieces": int(len(pieces) - 1)}
     if len(steps):
@@ -567,9 +562,7 @@ def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
     d = np.linalg.norm(np.diff(mapped.xyz, axis=0), axis=1)
     if len(d) == 0:
         return 0.0
-    valid = np.ones(len(d), dtype=bool)
-    cuts = np.asarray(planar.pieces)[1:-1] - 1
-    valid[cuts[(cuts >= 0) & (cuts < len(d))]] = False
+    valid = step_mask(len(mapped.xyz), planar.pieces)
     if planar.stats.get("on_grid", True):
         valid &= np.abs(np.diff(planar.ij, axis=0)).max(axis=1) <= 1
     return float(d[valid].max()) if valid.any() else 0.0

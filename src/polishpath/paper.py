@@ -43,6 +43,7 @@ import numpy as np
 
 from ._version import __version__
 from .errors import InputError, ParameterError, PolishPathError
+from .pathops import pieces_after_keep, step_mask
 
 __all__ = ["PAPER", "Settings", "machine_info", "reproduce", "settings_for"]
 
@@ -334,9 +335,7 @@ def _draw_surface(ax, surface, max_faces: int = 6000, alpha: float = 0.3, color:
 
 def _segments(points: np.ndarray, pieces) -> np.ndarray:
     n = len(points)
-    pieces = np.asarray([0, n] if pieces is None else pieces)
-    piece_of = np.searchsorted(pieces[1:-1], np.arange(n), side="right") if len(pieces) > 2 else np.zeros(n, int)
-    same = piece_of[1:] == piece_of[:-1]
+    same = step_mask(n, pieces)
     return np.stack([points[:-1], points[1:]], axis=1)[same], np.arange(n - 1)[same] / max(n - 1, 1)
 
 
@@ -618,13 +617,9 @@ def _on_part_only(flat, path):
     if ok.all():
         return path, 0
     n = len(ok)
-    pieces = np.asarray(path.pieces if path.pieces is not None else [0, n])
-    piece_of = np.searchsorted(pieces[1:-1], np.arange(n), side="right")
     keep = np.flatnonzero(ok)
     # a new piece starts where the kept index jumps or the piece changes
-    brk = np.ones(len(keep), bool)
-    brk[1:] = (np.diff(keep) != 1) | (np.diff(piece_of[keep]) != 0)
-    new_pieces = np.append(np.flatnonzero(brk), len(keep)).astype(np.int64)
+    new_pieces = pieces_after_keep(path.pieces, ok)
     return replace(path, uv=np.asarray(path.uv)[keep], ij=np.asarray(path.ij)[keep], pieces=new_pieces), int(n - len(keep))
 
 

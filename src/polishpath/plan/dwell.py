@@ -28,12 +28,13 @@ import numpy as np
 import shapely
 
 from ..errors import ParameterError, SpacingTooLargeError
+from ..pathops import DIRECTION_NAMES, DIRECTION_STEPS
 from ..types import Region
 
 #: 8 directions in grid index space, counter-clockwise from +i (east).
 #: Direction ``d`` and ``(d + 4) % 8`` are opposite.
-DIRS = np.array([[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1]], dtype=np.int64)
-DIR_NAMES = ("E", "NE", "N", "NW", "W", "SW", "S", "SE")
+DIRS = DIRECTION_STEPS
+DIR_NAMES = DIRECTION_NAMES
 
 # Largest dense bounding-box grid we are willing to allocate (points).
 _MAX_DENSE = 600_000_000

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..pathops import piece_index
 from .rundata import RunData, cluster_mesh, decimate_indices
 
 #: display limits of the interactive views (the files keep every point)
@@ -30,7 +31,7 @@ def _broken(points: np.ndarray, idx: np.ndarray, pieces: np.ndarray | None) -> t
     order = idx / max(n - 1, 1)
     if pieces is None or len(pieces) <= 2:
         return p, order
-    piece_of = np.searchsorted(np.asarray(pieces[1:-1]), idx, side="right")
+    piece_of = piece_index(pieces, n, idx)
     cut = np.flatnonzero(np.diff(piece_of) != 0) + 1
     p = np.insert(p, cut, np.nan, axis=0)
     order = np.insert(order.astype(float), cut, np.nan)

@@ -16,9 +16,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+# the path maths of the report, re-exported for its public API
+from ..pathops import DIRECTION_NAMES, step_lengths, step_mask, turn_angles_deg  # noqa: F401
+from ..pathops import direction_counts as grid_directions  # noqa: F401
 
 #: names of the 8 grid directions, counter-clockwise from +i (grid frame)
-DIRECTION_NAMES = ("E", "NE", "N", "NW", "W", "SW", "S", "SE")
 
 
 @dataclass
@@ -161,109 +163,6 @@ def _load_simulation(sim: Path) -> dict[str, Any]:
 
 
 # --- derived quantities -------------------------------------------------------------
-
-
-def step_mask(n_points: int, pieces: np.ndarray | None) -> np.ndarray:
-    """Which of the ``n_points - 1`` steps join two points of the same piece.
-
-    Parameters
-    ----------
-    n_points : int
-        Number of dwell points N.
-    pieces : (K+1,) int or None
-        Piece offsets (None: one piece).
-
-    Returns
-    -------
-    (N-1,) bool
-        False for the lifts between pieces.
-    """
-    m = np.ones(max(n_points - 1, 0), dtype=bool)
-    if pieces is not None and len(pieces) > 2:
-        starts = np.asarray(pieces[1:-1], dtype=np.int64)
-        starts = starts[(starts >= 1) & (starts < n_points)]
-        m[starts - 1] = False
-    return m
-
-
-def step_lengths(points: np.ndarray, pieces: np.ndarray | None = None) -> np.ndarray:
-    """Lengths of the steps between consecutive dwell points within pieces.
-
-    Parameters
-    ----------
-    points : (N, d) float
-        Dwell points, mm.
-    pieces : (K+1,) int, optional
-        Piece offsets; steps across pieces (tool lifts) are left out.
-
-    Returns
-    -------
-    (S,) float64
-        Step lengths, mm.
-    """
-    p = np.asarray(points, dtype=float)
-    if len(p) < 2:
-        return np.zeros(0)
-    d = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    return d[step_mask(len(p), pieces)]
-
-
-def grid_directions(ij: np.ndarray, pieces: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """Count the steps of a grid path in each of the 8 directions.
-
-    Parameters
-    ----------
-    ij : (N, 2) int
-        Grid indices of the dwell points in path order.
-    pieces : (K+1,) int, optional
-        Piece offsets; lifts between pieces are left out.
-
-    Returns
-    -------
-    counts : (8,) int64
-        Steps per direction, in :data:`DIRECTION_NAMES` order (E = +i, N = +j).
-    other : int
-        Steps that are not a single move to one of the 8 neighbours.
-    """
-    codes = _direction_codes(ij, pieces)
-    valid = codes[codes >= 0]
-    counts = np.bincount(valid, minlength=8).astype(np.int64)
-    return counts, int(np.count_nonzero(codes == -1))
-
-
-def _direction_codes(ij: np.ndarray, pieces: np.ndarray | None) -> np.ndarray:
-    """Per step: 0..7 direction code, -1 not a neighbour move, -2 a lift between pieces."""
-    g = np.asarray(ij, dtype=np.int64)
-    if len(g) < 2:
-        return np.zeros(0, dtype=np.int64)
-    d = np.diff(g, axis=0)
-    unit = (np.abs(d).max(axis=1) == 1)
-    ang = np.arctan2(d[:, 1], d[:, 0])
-    code = np.mod(np.rint(ang / (np.pi / 4)).astype(np.int64), 8)
-    code = np.where(unit, code, -1)
-    code[~step_mask(len(g), pieces)] = -2
-    return code
-
-
-def turn_angles_deg(ij: np.ndarray, pieces: np.ndarray | None = None) -> np.ndarray:
-    """Signed turn angle between consecutive grid steps, degrees in (-180, 180].
-
-    Only pairs of neighbour moves within one piece count. Positive turns are
-    counter-clockwise in the grid frame; 0 is straight on.
-
-    Returns
-    -------
-    (T,) float64
-        Multiples of 45 degrees for a grid path.
-    """
-    code = _direction_codes(ij, pieces)
-    if len(code) < 2:
-        return np.zeros(0)
-    a, b = code[:-1], code[1:]
-    ok = (a >= 0) & (b >= 0)
-    t = np.mod(b[ok] - a[ok], 8)  # 0..7 eighths of a turn
-    t = np.where(t > 4, t - 8, t)
-    return t.astype(float) * 45.0
 
 
 def angle_error_deg(vertices: np.ndarray, faces: np.ndarray, angles: np.ndarray) -> np.ndarray:
