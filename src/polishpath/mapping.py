@@ -475,23 +475,7 @@ def jacobian_singular_values(flat: Flattening) -> np.ndarray:
         ``(largest, smallest)`` stretch of a planar length when carried to the
         part, per triangle (dimensionless); ``inf`` for triangles of zero planar area.
     """
-    f = flat.surface.faces
-    p3 = flat.surface.vertices[f]
-    p2 = flat.uv[f]
-    e3 = np.stack([p3[:, 1] - p3[:, 0], p3[:, 2] - p3[:, 0]], axis=2)  # (F, 3, 2)
-    e2 = np.stack([p2[:, 1] - p2[:, 0], p2[:, 2] - p2[:, 0]], axis=2)  # (F, 2, 2)
-    det = e2[:, 0, 0] * e2[:, 1, 1] - e2[:, 0, 1] * e2[:, 1, 0]
-    ok = np.abs(det) > 1e-300
-    inv = np.zeros_like(e2)
-    d = np.where(ok, det, 1.0)
-    inv[:, 0, 0] = e2[:, 1, 1] / d
-    inv[:, 1, 1] = e2[:, 0, 0] / d
-    inv[:, 0, 1] = -e2[:, 0, 1] / d
-    inv[:, 1, 0] = -e2[:, 1, 0] / d
-    jac = e3 @ inv  # (F, 3, 2)
-    sv = np.linalg.svd(jac, compute_uv=False)
-    sv[~ok] = np.inf
-    return sv
+    return meshops.jacobian_singular_values(flat.uv, flat.surface.vertices, flat.surface.faces)
 
 
 def planar_spacing_for_surface(

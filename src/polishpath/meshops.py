@@ -1,4 +1,4 @@
-"""Mesh maths shared by every stage: angles, areas, normals, edges, boundary loops.
+"""Mesh maths shared by every stage: angles, areas, normals, edges, boundary loops, map stretch.
 
 The one place for these formulas (prysm's "maths in one place"). All functions
 are vectorised numpy and take plain ``(V, 3)`` / ``(V, 2)`` vertex arrays and
@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+
+from .errors import ParameterError
 
 
 def corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -219,3 +221,58 @@ def connected_components(faces: np.ndarray) -> np.ndarray:
 def surface_area(vertices: np.ndarray, faces: np.ndarray) -> float:
     """Total area, mm^2."""
     return float(face_areas(vertices, faces).sum())
+
+
+def jacobian_singular_values(src: np.ndarray, dst: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Singular values of the per-triangle linear map that carries a mesh from ``src`` to ``dst``.
+
+    On each triangle the map is the linear ``J`` with ``J (s1 - s0, s2 - s0) =
+    (d1 - d0, d2 - d0)``; its singular values are the largest and smallest
+    factor by which it stretches a length in the triangle. A 3D source
+    triangle is first laid in its own plane (an orthonormal frame along its
+    first edge), so ``src`` and ``dst`` may each be the part (3D) or the plane
+    (2D): ``jacobian_singular_values(uv, xyz, f)`` is the plane -> part
+    stretch, ``jacobian_singular_values(xyz, uv, f)`` the part -> plane one.
+
+    Parameters
+    ----------
+    src : (V, 2) or (V, 3) float
+        Vertex positions the map starts from, mm.
+    dst : (V, 2) or (V, 3) float
+        Vertex positions it carries them to, mm (same indexing).
+    faces : (F, 3) int
+        Triangles.
+
+    Returns
+    -------
+    (F, 2) float64
+        ``sigma1 >= sigma2 >= 0`` per triangle (dimensionless); ``inf`` for
+        triangles of zero area in ``src``.
+    """
+    f = np.asarray(faces)
+    ps = np.asarray(src, dtype=np.float64)[f]
+    pd = np.asarray(dst, dtype=np.float64)[f]
+    es = np.stack([ps[:, 1] - ps[:, 0], ps[:, 2] - ps[:, 0]], axis=2)  # (F, ds, 2) columns = edges
+    if es.shape[1] == 3:
+        # coordinates of the two edges in the triangle's own orthonormal frame (x along the first edge)
+        e1, e2 = es[:, :, 0], es[:, :, 1]
+        l1 = np.linalg.norm(e1, axis=1)
+        x = e1 / np.where(l1 > 0, l1, 1.0)[:, None]
+        y = np.cross(np.cross(e1, e2), e1)
+        ly = np.linalg.norm(y, axis=1)
+        y = y / np.where(ly > 0, ly, 1.0)[:, None]
+        es = np.stack([np.stack([l1, np.zeros_like(l1)], 1), np.stack([(e2 * x).sum(1), (e2 * y).sum(1)], 1)], axis=2)
+    elif es.shape[1] != 2:
+        raise ParameterError(f"src must be (V, 2) or (V, 3) vertex positions in mm, got shape {np.asarray(src).shape}.")
+    ed = np.stack([pd[:, 1] - pd[:, 0], pd[:, 2] - pd[:, 0]], axis=2)  # (F, dd, 2)
+    det = es[:, 0, 0] * es[:, 1, 1] - es[:, 0, 1] * es[:, 1, 0]
+    ok = np.abs(det) > 1e-300
+    d = np.where(ok, det, 1.0)
+    inv = np.empty_like(es)
+    inv[:, 0, 0] = es[:, 1, 1] / d
+    inv[:, 1, 1] = es[:, 0, 0] / d
+    inv[:, 0, 1] = -es[:, 0, 1] / d
+    inv[:, 1, 0] = -es[:, 1, 0] / d
+    sv = np.linalg.svd(ed @ inv, compute_uv=False)
+    sv[~ok] = np.inf
+    return sv

@@ -56,38 +56,6 @@ def boundary_self_overlap(uv: np.ndarray, faces: np.ndarray) -> int:
     return int(np.count_nonzero(~share))
 
 
-def singular_values(vertices: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Singular values of the per-face Jacobian of the map 3D -> plane.
-
-    Returns
-    -------
-    (F, 2) float64
-        ``sigma1 >= sigma2 >= 0`` for each face.
-    """
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces)
-    p = v[f]
-    e1 = p[:, 1] - p[:, 0]
-    e2 = p[:, 2] - p[:, 0]
-    # local orthonormal frame of each 3D triangle
-    l1 = np.linalg.norm(e1, axis=1)
-    x = e1 / np.where(l1 > 0, l1, 1.0)[:, None]
-    n = np.cross(e1, e2)
-    y = np.cross(n, e1)
-    ly = np.linalg.norm(y, axis=1)
-    y = y / np.where(ly > 0, ly, 1.0)[:, None]
-    P = np.stack([np.stack([l1, np.zeros_like(l1)], 1), np.stack([(e2 * x).sum(1), (e2 * y).sum(1)], 1)], axis=2)
-    q = np.asarray(uv, dtype=np.float64)[f]
-    Q = np.stack([q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]], axis=2)  # (F, 2, 2) columns = edges
-    det = P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] * P[:, 1, 0]
-    det = np.where(np.abs(det) > 0, det, np.inf)
-    Pinv = np.stack(
-        [np.stack([P[:, 1, 1], -P[:, 0, 1]], 1), np.stack([-P[:, 1, 0], P[:, 0, 0]], 1)], axis=1
-    ) / det[:, None, None]
-    Jm = Q @ Pinv
-    return np.linalg.svd(Jm, compute_uv=False)
-
-
 def flattening_metrics(surface: Surface, uv: np.ndarray) -> dict[str, float]:
     """Distortion of a planar map of ``surface``.
 
@@ -122,12 +90,14 @@ def flattening_metrics(surface: Surface, uv: np.ndarray) -> dict[str, float]:
     with np.errstate(divide="ignore", invalid="ignore"):
         la = np.abs(np.log(a2 * scale / a3))
     la = np.where(np.isfinite(la), la, np.nan)
-    sv = singular_values(v, uv * np.sqrt(scale), f)
+    sv = meshops.jacobian_singular_values(v, uv * np.sqrt(scale), f)  # part -> plane
     with np.errstate(divide="ignore", invalid="ignore"):
         qc = sv[:, 0] / sv[:, 1]
     w = a3 / A3
     finite = np.isfinite(qc)
-    l2 = np.sqrt(np.sum(w * 0.5 * (sv[:, 0] ** 2 + sv[:, 1] ** 2)))
+    # a face of zero area on the part has no stretch (weight 0, singular values inf)
+    with np.errstate(invalid="ignore"):
+        l2 = np.sqrt(np.sum(np.where(w > 0, w * 0.5 * (sv[:, 0] ** 2 + sv[:, 1] ** 2), 0.0)))
     return {
         "angle_error_mean_deg": float(err.mean()),
         "angle_error_max_deg": float(err.max()),
