@@ -36,18 +36,28 @@ import time
 
 import numpy as np
 
-from ._walk import (
+from ._component import collect_pieces, plan_component
+from ._steps import (
+    N_STATS,
     ST_APPEND,
+    ST_BLIND,
     ST_DEL,
+    ST_ESCAPE,
     ST_JOIN,
+    ST_KICK,
     ST_PHASE1,
+    ST_REV,
     ST_ROT,
     ST_SPLICE,
     ST_STEPS,
+    ST_STUCK,
     ST_SUBWALK,
-    collect_pieces,
+    ST_TENTHS,
+    ST_TWOOPT,
+    WalkOptions,
     label_components,
-    walk_component,
+    walk_grid,
+    walk_work,
 )
 from .dwell import DwellGrid
 
@@ -125,21 +135,11 @@ def pseudorandom_order(
     comp_order = np.argsort(comp_dist, kind="stable")
     seeds = np.random.SeedSequence(int(seed)).generate_state(max(ncomp, 1), dtype=np.uint32)
 
-    vis = np.zeros(H * W, dtype=np.uint8)
-    diag = np.zeros(H * W, dtype=np.uint8)
-    nxt = np.full(H * W, -1, dtype=np.int32)
-    prv = np.full(H * W, -1, dtype=np.int32)
-    pos = np.full(H * W, -1, dtype=np.int32)
-    inq = np.zeros(H * W, dtype=np.uint8)
-    mark = np.zeros(H * W, dtype=np.uint8)
-    maxc = int(np.diff(bounds).max()) if ncomp else 0
-    P = np.empty(maxc + 1, dtype=np.int32)
-    queue = np.empty(maxc + 1, dtype=np.int32)
-    stack = np.empty(maxc + 2, dtype=np.int32)
-    T = np.empty((H * W, 6), dtype=np.int32)
-    rk = np.full(H * W, -1.0)
+    g = walk_grid(adj, W, lab_dense)
+    work = walk_work(H * W, int(np.diff(bounds).max()) if ncomp else 0)
+    options = WalkOptions(int(window), int(backtrack), 0, int(max_blind), bool(shortest), int(steer), int(max_kicks))
 
-    tot = np.zeros(24, dtype=np.int64)
+    tot = np.zeros(N_STATS, dtype=np.int64)
     orders, piece_offs = [], [np.zeros(1, dtype=np.int64)]
     n_done = 0
     prev_end = grid.uv[start]
@@ -151,11 +151,9 @@ def pseudorandom_order(
             s_local = members[np.argmin(np.hypot(*(grid.uv[members] - prev_end).T))]
         cn = nodes[members]
         s_dense = int(nodes[s_local])
-        budget = int(backtrack_budget * len(members))
-        st = walk_component(adj, W, cn, s_dense, int(seeds[c]), int(window), int(backtrack), budget, int(max_blind), bool(shortest), lab_dense, int(c), int(steer),
-                            vis, diag, nxt, prv, pos, P, inq, queue, mark, T, stack, 1 + n_done, rk, int(max_kicks))
-        tot += st
-        ordc, offc = collect_pieces(cn, s_dense, vis, nxt, prv)
+        opts = options._replace(budget=int(backtrack_budget * len(members)))
+        tot += plan_component(cn, s_dense, int(seeds[c]), int(c), 1 + n_done, g, opts, work)
+        ordc, offc = collect_pieces(cn, s_dense, work.vis, work.nxt, work.prv)
         orders.append(ordc)
         piece_offs.append(offc[1:] + n_done)
         n_done += len(ordc)
@@ -173,13 +171,13 @@ def pseudorandom_order(
         "appended": int(tot[ST_APPEND]),
         "subwalks": int(tot[ST_SUBWALK]),
         "joins": int(tot[ST_JOIN]),
-        "reversed_points": int(tot[8]),
-        "blind": int(tot[9]),
-        "stuck": int(tot[10]),
-        "two_opt": int(tot[11]),
-        "kicks": int(tot[12]),
-        "escapes": int(tot[13]),
-        "turnarounds_by_tenth": tot[14:24].tolist(),
+        "reversed_points": int(tot[ST_REV]),
+        "blind": int(tot[ST_BLIND]),
+        "stuck": int(tot[ST_STUCK]),
+        "two_opt": int(tot[ST_TWOOPT]),
+        "kicks": int(tot[ST_KICK]),
+        "escapes": int(tot[ST_ESCAPE]),
+        "turnarounds_by_tenth": tot[ST_TENTHS:N_STATS].tolist(),
         "walk_fraction": float(tot[ST_PHASE1]) / max(grid.n, 1),
         "seconds": time.perf_counter() - t0,
     }
