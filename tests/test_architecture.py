@@ -1,6 +1,6 @@
 """Architecture rule: the data flows one way, and stages meet only through plain data.
 
-surface -> flatten -> plan -> map -> smooth -> export / simulate / report
+surface -> flatten -> plan -> map -> smooth -> export / simulate / report -> paper
 
 Each stage may import the core (types, errors, meshops, pathops, progress, _version) and
 stages upstream of it (earlier in ORDER), never a stage downstream: a stage
@@ -21,7 +21,7 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
 CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "_version"}
-ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report"]
+ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report", "paper"]
 # the planner and flattening do not need each other's code either way: both take plain data
 INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces")}
 ALLOWED = {st: {u for u in ORDER[:i] if (st, u) not in INDEPENDENT} for i, st in enumerate(ORDER)}

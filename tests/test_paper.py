@@ -1,19 +1,28 @@
 """``polishpath.paper.reproduce`` (issue 9): the paper's tables and figures, regenerated, beside its numbers.
 
 One reduced run (``quick=True``) is shared by all checks. Nothing here asserts on
-time: the machine is shared.
+time: the machine is shared. The shared meshes folder is ``$POLISHPATH_MESHES``,
+else the one of conftest.py (``$POLISHPATH_SHARED/data/meshes``, default
+``../shared/data/meshes`` beside the checkout); the checks that need it skip when
+it is absent.
 """
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from polishpath.errors import ParameterError
-from polishpath.paper import PAPER, SHARED_MESHES, reproduce
+from polishpath.errors import InputError, ParameterError
+from polishpath.paper import MESHES_ENV, PAPER, meshes_folder, reproduce
+
+_MESHES = Path(os.environ.get(MESHES_ENV)
+               or Path(os.environ.get("POLISHPATH_SHARED", Path(__file__).resolve().parents[1].parent / "shared"))
+               / "data" / "meshes")
+MESHES = _MESHES if _MESHES.is_dir() else None
 
 FIGURES = ["fig02_residuals", "fig03_flattening", "fig05_seat_plane", "fig06_seat_path", "fig07_seat_nurbs",
            "fig08_peer_paths", "fig09_hemisphere_paths", "fig10_cases", "fig13_psd"]
@@ -22,7 +31,7 @@ FIGURES = ["fig02_residuals", "fig03_flattening", "fig05_seat_plane", "fig06_sea
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("paper")
-    res = reproduce(out, quick=True, seed=0)
+    res = reproduce(out, quick=True, seed=0, meshes=MESHES)
     return out, res, (out / "paper.md").read_text(encoding="utf-8"), (out / "paper.html").read_text(encoding="utf-8")
 
 
@@ -100,16 +109,77 @@ def test_html_is_self_contained(run):
     assert "<table>" in html and "96.64 %" in html
 
 
-def test_bunny_patch_or_note(run):
+def test_bunny_patch(run):
+    if MESHES is None or not (MESHES / "stanford-bunny.obj").exists():
+        pytest.skip(f"the shared meshes ({_MESHES}) are not on this machine; set ${MESHES_ENV} to run this check")
     _, res, md, _ = run
-    if (SHARED_MESHES / "stanford-bunny.obj").exists():
-        assert res["bunny"]["boundary_loops"] == 1 and res["bunny"]["faces"] > 100
-        assert any("rabbit" in r["case"] for r in res["fig10"])
-        assert "geodesic" in md
-    else:
-        assert "was skipped" in md
+    assert res["bunny"]["boundary_loops"] == 1 and res["bunny"]["faces"] > 100
+    assert any("rabbit" in r["case"] for r in res["fig10"])
+    assert "geodesic" in md
+
+
+def test_no_meshes_folder_skips_the_rabbit_with_a_note(tmp_path, monkeypatch):
+    from polishpath.paper.cases import figures_cases
+    from polishpath.paper.figures import FigureSet
+    from polishpath.paper.settings import settings_for
+    from polishpath.report.html import Document
+
+    monkeypatch.delenv(MESHES_ENV, raising=False)
+    assert meshes_folder(None) is None
+    st = settings_for(True, None)
+    doc, res = Document(), {}
+    figures_cases(doc, FigureSet(tmp_path, "figures", {"polishpath": "x", "node": "n", "processor": "p", "cpus": 1}, 0),
+                  st, res, 0)
+    md = doc.markdown()
+    assert "The rabbit (f) was skipped: no shared meshes folder was given" in md and MESHES_ENV in md
+    assert "bunny" not in res and not any("rabbit" in r["case"] for r in res["fig10"])
+
+
+def test_missing_meshes_folder_is_an_input_error(tmp_path, monkeypatch):
+    with pytest.raises(InputError, match="does not exist"):
+        meshes_folder(tmp_path / "nowhere")
+    monkeypatch.setenv(MESHES_ENV, str(tmp_path / "nowhere"))
+    with pytest.raises(InputError, match=MESHES_ENV):
+        meshes_folder(None)
+    assert meshes_folder(tmp_path) == tmp_path
 
 
 def test_bad_seed():
     with pytest.raises(ParameterError):
         reproduce(Path("unused"), quick=True, seed=-1)
+
+
+def test_table3_is_measured_in_one_place():
+    """The benchmark imports the package's measuring (no second copy), and the paper's rows come from it."""
+    import ast
+
+    bench = Path(__file__).resolve().parents[1] / "benchmarks" / "table3.py"
+    tree = ast.parse(bench.read_text(encoding="utf-8"))
+    imported = {(n.module, a.name) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) for a in n.names}
+    assert ("polishpath.paper.table3", "measure_surface") in imported
+    assert ("polishpath.paper.table3", "verdict") in imported
+    called = {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+    assert "measure_surface" in called
+    for banned in ("plan", "map_to_surface", "honour_surface_spacing", "flatten"):
+        assert banned not in called, banned
+
+
+def test_measure_surface_rows_and_errors():
+    from polishpath.paper.table3 import measure_surface, verdict
+    from polishpath.surfaces import load_surface
+
+    s = load_surface("hemisphere:R=30,triangles=600")
+    m = measure_surface(s, 4.0, seed=1, patterns=("mabf", "hilbert"), spacing_on="plane", label="h")
+    assert m["planar_spacing"] == 4.0 and [r["pattern"] for r in m["rows"]] == ["mabf", "hilbert"]
+    for r in m["rows"]:
+        assert r["surface"] == "h" and r["crossings"] == 0 and 0 < r["coverage"] <= 1
+        assert r["through_mm"] < 1e-6 and r["accuracy_dev_mm"] == r["through_mm"]
+        assert 0 < r["area_within_s"] <= 1 and r["inner_gap_mm"] >= 0
+        assert verdict(r)[4] == "Y"
+    with pytest.raises(ParameterError, match="unknown Table 3 pattern"):
+        measure_surface(s, 4.0, seed=1, patterns=("spiralz",))
+    with pytest.raises(ParameterError, match="spacing_on"):
+        measure_surface(s, 4.0, seed=1, spacing_on="part")
+    # a pattern that cannot plan becomes an error row when asked to, and raises otherwise
+    rows = measure_surface(s, 500.0, seed=1, patterns=("unicursal",), spacing_on="plane", errors="row")["rows"]
+    assert "error" in rows[0]

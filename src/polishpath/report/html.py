@@ -503,6 +503,109 @@ def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, 
     return {"report": report, **written}
 
 
-__all__ = ["build_html", "flatten_items", "fmt_value", "write_report"]
+# --- documents: one list of blocks, written as markdown and as self-contained HTML ---------------
+# (used by polishpath.paper; the run report above builds its page directly)
+
+_DOC_CSS = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;line-height:1.45}"
+            "table{border-collapse:collapse;margin:0.5em 0;font-size:0.9em}td,th{border:1px solid #bbb;"
+            "padding:3px 7px;text-align:right}th{background:#eee}td:first-child,th:first-child{text-align:left}"
+            "img{max-width:100%}figure{margin:1em 0}figcaption,.cap{font-size:0.85em;color:#444}"
+            "pre{background:#f6f6f6;padding:0.6em;overflow-x:auto;font-size:0.85em}")
 
 
+def inline_html(text: str) -> str:
+    """Markdown inline marks (``**bold**``, ```code```, ``*italic*``) of ``text`` as escaped HTML."""
+    import re
+
+    t = html.escape(str(text), quote=False)
+    t = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", t)
+    t = re.sub(r"`([^`]+)`", r"<code>\1</code>", t)
+    return re.sub(r"(?<![\w*])\*([^*\n]+?)\*(?![\w*])", r"<i>\1</i>", t)
+
+
+def markdown_table(header: list, rows: list, caption: str = "") -> str:
+    """A pipe table (a ``|`` inside a cell becomes ``/``), the caption in italics below it."""
+    lines = ["| " + " | ".join(str(c) for c in header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(str(c).replace("|", "/") for c in r) + " |" for r in rows]
+    return "\n".join(lines) + (f"\n\n*{caption}*" if caption else "")
+
+
+def html_table(header: list, rows: list, caption: str = "") -> str:
+    """The same table as HTML, cells with their inline marks, the caption as a ``p.cap`` below it."""
+    t = "<table><thead><tr>" + "".join(f"<th>{inline_html(c)}</th>" for c in header) + "</tr></thead><tbody>"
+    t += "".join("<tr>" + "".join(f"<td>{inline_html(c)}</td>" for c in r) + "</tr>" for r in rows)
+    return t + "</tbody></table>" + (f"<p class='cap'>{inline_html(caption)}</p>" if caption else "")
+
+
+class Document:
+    """Headings, paragraphs, lists, tables, figures and preformatted text, in order.
+
+    :meth:`markdown` links the figures relatively; :meth:`html` embeds them
+    (PNG data URIs), so the page needs no other file and fetches nothing.
+    """
+
+    def __init__(self) -> None:
+        self.blocks: list[tuple] = []
+
+    def h(self, level: int, text: str) -> None:
+        self.blocks.append(("h", level, text))
+
+    def p(self, text: str) -> None:
+        self.blocks.append(("p", text))
+
+    def ul(self, items) -> None:
+        self.blocks.append(("ul", list(items)))
+
+    def table(self, header, rows, caption: str = "") -> None:
+        self.blocks.append(("table", list(header), [list(r) for r in rows], caption))
+
+    def fig(self, rel: str, caption: str) -> None:
+        """A PNG at ``rel``, a path relative to the folder the document is written to."""
+        self.blocks.append(("fig", rel, caption))
+
+    def pre(self, text: str) -> None:
+        self.blocks.append(("pre", text))
+
+    def markdown(self) -> str:
+        """The document as markdown (figures as relative image links)."""
+        out = []
+        for b in self.blocks:
+            kind = b[0]
+            if kind == "h":
+                out.append("#" * b[1] + " " + b[2])
+            elif kind == "p":
+                out.append(b[1])
+            elif kind == "ul":
+                out.append("\n".join(f"* {it}" for it in b[1]))
+            elif kind == "table":
+                out.append(markdown_table(b[1], b[2], b[3]))
+            elif kind == "fig":
+                out.append(f"![{b[2]}]({b[1]})\n\n*{b[2]}*")
+            elif kind == "pre":
+                out.append("```\n" + b[1].rstrip("\n") + "\n```")
+        return "\n\n".join(out) + "\n"
+
+    def html(self, root: str | Path, title: str) -> str:
+        """The document as one self-contained HTML page; ``root`` is the folder the figure paths are relative to."""
+        body = []
+        for b in self.blocks:
+            kind = b[0]
+            if kind == "h":
+                body.append(f"<h{b[1]}>{inline_html(b[2])}</h{b[1]}>")
+            elif kind == "p":
+                body.append(f"<p>{inline_html(b[1])}</p>")
+            elif kind == "ul":
+                body.append("<ul>" + "".join(f"<li>{inline_html(i)}</li>" for i in b[1]) + "</ul>")
+            elif kind == "table":
+                body.append(html_table(b[1], b[2], b[3]))
+            elif kind == "fig":
+                body.append(f"<figure><img alt='{_esc(b[2])}' src='{_png_data_uri(Path(root) / b[1])}'>"
+                            f"<figcaption>{inline_html(b[2])}</figcaption></figure>")
+            elif kind == "pre":
+                body.append(f"<pre>{html.escape(b[1])}</pre>")
+        return (f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+                f"<style>{_DOC_CSS}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+__all__ = ["Document", "build_html", "flatten_items", "fmt_value", "html_table", "inline_html", "markdown_table",
+           "write_report"]

@@ -1,0 +1,99 @@
+"""Small helpers every section of the reproduction uses: the machine, surfaces, number formatting, NURBS check."""
+
+from __future__ import annotations
+
+import datetime
+import math
+import os
+import platform
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._version import __version__
+
+__all__ = ["fmt", "load", "machine_info", "nurbs_deviation", "spacing_for", "stamp_text"]
+
+
+def machine_info() -> dict[str, Any]:
+    """The machine and version that made the figures.
+
+    Returns
+    -------
+    dict
+        ``node``, ``processor``, ``cpus``, ``python``, ``polishpath``, ``date``.
+    """
+    proc = platform.processor() or platform.machine()
+    try:  # platform.processor() is often empty or just the architecture on Linux
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                proc = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"node": platform.node(), "processor": proc, "cpus": os.cpu_count(), "python": platform.python_version(),
+            "polishpath": __version__, "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds")}
+
+
+def stamp_text(machine: dict, seed: int) -> str:
+    """The one-line stamp of every figure: version, machine, CPUs, seed."""
+    m = machine
+    return f"polishpath {m['polishpath']} | {m['node']} | {m['processor']} | {m['cpus']} CPUs | seed {seed}"
+
+
+def load(spec: str, scale: float = 1.0):
+    """A surface from a spec or mesh path (``load_surface``), ``scale`` to mm (1: as the spec says)."""
+    from ..surfaces import load_surface
+
+    return load_surface(spec, scale=None if scale == 1.0 else scale)
+
+
+def fmt(x, nd: int = 3) -> str:
+    """A table cell: '–' for missing / not finite, thousands separators for integers, ``nd`` decimals otherwise."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    if isinstance(x, (int, np.integer)):
+        return f"{int(x):,}"
+    return f"{x:.{nd}f}"
+
+
+def spacing_for(surface, n_points: int) -> float:
+    """The spacing (mm, two significant digits) that puts about ``n_points`` dwell points on the surface."""
+    from .. import meshops
+
+    a = meshops.surface_area(surface.vertices, surface.faces)
+    return float(f"{math.sqrt(a / n_points):.2g}")
+
+
+def nurbs_deviation(xyz: np.ndarray, pieces) -> float:
+    """Largest distance between the dwell points and our cubic NURBS through them, per piece.
+
+    Parameters
+    ----------
+    xyz : (N, 3) float
+        Dwell points on the part, mm.
+    pieces : (P + 1,) int or None
+        Piece starts and the end (None: one piece).
+
+    Returns
+    -------
+    float
+        mm (repeated points are dropped first; a piece of one point counts 0).
+    """
+    from ..smooth import evaluate, interpolate_nurbs
+
+    pieces = np.asarray([0, len(xyz)] if pieces is None else pieces)
+    dev = 0.0
+    for a, b in zip(pieces[:-1], pieces[1:]):
+        q = xyz[a:b]
+        if len(q) < 2:
+            continue
+        keep = np.ones(len(q), bool)
+        keep[1:] = np.linalg.norm(np.diff(q, axis=0), axis=1) > 0
+        q = q[keep]
+        if len(q) < 2:
+            continue
+        curve, u = interpolate_nurbs(q)
+        dev = max(dev, float(np.linalg.norm(evaluate(curve, u) - q, axis=1).max()))
+    return dev
