@@ -9,7 +9,9 @@ Stage function :func:`smooth` turns a :class:`~polishpath.types.SurfacePath` int
 2. a dwell time per point (uniform, scaled by the part area each point stands
    for, or given) turned into a feed schedule;
 3. samples at a constant interpolation period with a curvature-limited feed
-   (:func:`interpolate_constant_period`).
+   (:func:`interpolate_constant_period`), the parameter advanced by one of two
+   integrators (``integrator="taylor"``, the default, or ``"ab-am"``, the
+   paper's Adams-Bashforth / Adams-Moulton; see ``docs/machine-output.md``).
 
 Defaults (see ``docs/machine-output.md``): feed 600 mm/min (10 mm/s, the middle
 of the 100-2000 mm/min range of small-tool sub-aperture polishing), period 4 ms
@@ -25,7 +27,15 @@ import numpy as np
 
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve, Provenance, SurfacePath, ToolPath
-from .interpolate import arc_lengths, chord_errors, dwell_regions, interpolate_constant_period
+from .interpolate import (
+    DEFAULT_INTEGRATOR,
+    INTEGRATORS,
+    arc_lengths,
+    chord_errors,
+    dwell_regions,
+    integrator_kernel,
+    interpolate_constant_period,
+)
 from .nurbs import (
     averaged_knots,
     basis_functions,
@@ -59,6 +69,8 @@ __all__ = [
     "DEFAULT_FEED_MM_MIN",
     "DEFAULT_PERIOD_MS",
     "DEFAULT_CHORD_TOL_MM",
+    "DEFAULT_INTEGRATOR",
+    "INTEGRATORS",
 ]
 
 DEFAULT_FEED_MM_MIN = 600.0
@@ -224,6 +236,7 @@ def smooth(
     parametrization: str = "chord",
     deviation_samples: int = 20000,
     schedule_passes: int = 3,
+    integrator: str = DEFAULT_INTEGRATOR,
 ) -> ToolPath:
     """Smooth a surface path with a NURBS through every dwell point and sample it.
 
@@ -255,6 +268,10 @@ def smooth(
     schedule_passes : int
         Interpolation runs used to correct the feed schedule where the curvature
         limit slows the tool (see :func:`interpolate_constant_period`).
+    integrator : {"taylor", "ab-am"}
+        How the parameter advances each period: second-order Taylor predictor
+        with an exact chord corrector (default), or the paper's Adams-Bashforth /
+        Adams-Moulton (order 4); recorded in the provenance.
 
     Returns
     -------
@@ -271,6 +288,7 @@ def smooth(
     n = len(xyz)
     if n < 1:
         raise SmoothingError("The surface path has no dwell point.", "Plan a path with at least one point.")
+    integrator_kernel(integrator)  # a bad name fails before the curve is fitted
     if max_feed_mm_min is None:
         max_feed_mm_min = 5.0 * feed_mm_min
     pieces = _pieces_of(surface_path)
@@ -315,7 +333,7 @@ def smooth(
             curve, feed_mm_min, period_ms, chord_tol_mm,
             dwell_params=dwell_params[sl], dwell_times=times[sl],
             max_feed_mm_min=max_feed_mm_min, u_range=(off[k], np.nextafter(off[k + 1], -np.inf)),
-            schedule_passes=schedule_passes,
+            schedule_passes=schedule_passes, integrator=integrator,
         )
         samples.append(res["samples"])
         sparams.append(res["params"])
@@ -326,13 +344,18 @@ def smooth(
                 agg[key] = agg.get(key, 0) + val
             elif key.endswith("_min_mm_min"):
                 agg[key] = min(agg.get(key, np.inf), val)
-            elif key == "feed_fluctuation_rms" or key == "feed_limited_share":
+            elif key == "integrator":
+                agg[key] = val
+            elif key in ("feed_fluctuation_rms", "feed_limited_share", "fallback_share"):
                 agg.setdefault(key + "_pieces", []).append(val)
             else:
                 agg[key] = max(agg.get(key, -np.inf), val)
-    for key in ("feed_fluctuation_rms", "feed_limited_share"):
-        vals = agg.pop(key + "_pieces")
-        agg[key] = float(np.average(vals, weights=np.diff(spieces)))
+    for key in ("feed_fluctuation_rms", "feed_limited_share", "fallback_share"):
+        vals = np.asarray(agg.pop(key + "_pieces"))
+        if key.endswith("_rms"):  # root of the sample-weighted mean square over the pieces
+            agg[key] = float(np.sqrt(np.average(vals**2, weights=np.diff(spieces))))
+        else:
+            agg[key] = float(np.average(vals, weights=np.diff(spieces)))
     stats = dict(agg)
     stats.update(curve_deviation(curve, dwell_params, xyz, surface_path.normals, pieces, surface, deviation_samples))
     stats.update(
@@ -351,7 +374,7 @@ def smooth(
         {"feed_mm_min": float(feed_mm_min), "period_ms": float(period_ms), "chord_tol_mm": float(chord_tol_mm),
          "max_feed_mm_min": float(max_feed_mm_min), "degree": int(degree), "parametrization": parametrization,
          "area_weighted": bool(area_weighted), "dwell_times": time_source,
-         "schedule_passes": int(schedule_passes)},
+         "schedule_passes": int(schedule_passes), "integrator": integrator},
         seed=surface_path.provenance.seed,
     )
     return ToolPath(curve=curve, dwell_params=dwell_params, samples=np.concatenate(samples),

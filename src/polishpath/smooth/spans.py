@@ -1,0 +1,206 @@
+"""Shared compiled core of the constant-period integrators (numba).
+
+Every integrator (:mod:`.taylor`, :mod:`.abam`) advances the curve parameter one
+interpolation period at a time with the same building blocks, kept here so an
+integrator is only its own rule for the next parameter:
+
+* :func:`eval_span` — point, first and second derivative of one polynomial span
+  (the per-span form of :func:`polishpath.smooth.nurbs.span_polynomials`, paper
+  Eq. 13), by Horner's rule;
+* :func:`span_of` — the span holding a parameter, walked from a nearby span;
+* :func:`step_feed` — the feed of one step: the schedule, cut by the chord-error
+  limit of the local curvature, with a floor so the tool never stalls;
+* :func:`chord_step` — the parameter step whose chord is a given length
+  (bracketed secant / bisection), the exact corrector of the Taylor integrator
+  and the safeguard of the Adams integrator;
+* :func:`chord_deviation` — the measured chord error of a step, which every
+  integrator holds under the tolerance by shortening the step;
+* :func:`nudge` — a tiny step over a point where the curve has no speed;
+* :func:`grow` — the output buffers, doubled when full.
+
+Hand-written: the hot loops of the project's own interpolator (no well-kept
+library offers constant-period NURBS interpolation with a dwell-time schedule).
+Units: mm, mm/s, s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["eval_span", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge", "grow"]
+
+
+@numba.njit(cache=True)
+def eval_span(breaks, coeffs, s, u):  # pragma: no cover - numba
+    """C(u), C'(u), C''(u) on span ``s``: three (d,) arrays (mm, mm per unit u, ...)."""
+    h = breaks[s + 1] - breaks[s]
+    t = (u - breaks[s]) / h
+    p = coeffs.shape[1] - 1
+    d = coeffs.shape[2] - 1
+    val = np.empty(d)
+    d1 = np.zeros(d)
+    d2 = np.zeros(d)
+    for j in range(d):
+        val[j] = coeffs[s, p, j]
+    for k in range(p - 1, -1, -1):
+        for j in range(d):
+            d2[j] = d2[j] * t + 2.0 * d1[j]
+            d1[j] = d1[j] * t + val[j]
+            val[j] = val[j] * t + coeffs[s, k, j]
+    for j in range(d):
+        d1[j] /= h
+        d2[j] /= h * h
+    return val, d1, d2
+
+
+@numba.njit(cache=True)
+def span_of(breaks, s, u):  # pragma: no cover - numba
+    """Index of the span holding ``u``, walking from span ``s`` (steps move a span at a time)."""
+    ns = breaks.shape[0] - 1
+    while s < ns - 1 and u >= breaks[s + 1]:
+        s += 1
+    while s > 0 and u < breaks[s]:
+        s -= 1
+    return s
+
+
+@numba.njit(cache=True)
+def step_feed(sched, sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
+    """Feed of one step, mm/s.
+
+    ``sched`` is the scheduled feed (the dwell region's, capped by the machine
+    limit); ``sp2 = |C'|^2``, ``acc2 = |C''|^2``, ``dot = C'.C''`` at the step's
+    start give the curvature kappa. The feed is cut so that the chord error of
+    a step of length ``V T`` on a circle of radius ``rho = 1/kappa`` stays under
+    ``tol``: ``V <= 2 sqrt(2 rho tol - tol^2) / T``; never under 0.1 % of the
+    schedule.
+    """
+    sp = math.sqrt(sp2)
+    kap = math.sqrt(max(sp2 * acc2 - dot * dot, 0.0)) / (sp2 * sp)
+    v = sched
+    if kap > 0.0:
+        rho = 1.0 / kap
+        if tol < rho:
+            vlim = 2.0 * math.sqrt(2.0 * rho * tol - tol * tol) / period_s
+            v = min(v, vlim)
+        else:
+            # radius under the tolerance (a near-cusp where the path doubles back): the
+            # whole turn fits inside one chord, so the curvature limit says nothing
+            # useful; crawl at the feed floor instead of stalling at zero speed
+            v = min(v, tol / period_s)
+    # feed floor: 0.1 % of the schedule, so the tool never stalls where |C'| -> 0
+    return max(v, 1e-3 * sched)
+
+
+@numba.njit(cache=True)
+def chord_step(breaks, coeffs, s, u, u1, pa, ln, du):  # pragma: no cover - numba
+    """Parameter after ``u`` whose chord from ``pa = C(u)`` is ``ln`` (to 1e-6 relative).
+
+    Starts from the guess ``u + du``, brackets the root of ``|C(u + du) - pa| = ln``
+    and closes it by safeguarded secant / bisection; stops at ``u1`` when the
+    curve ends within the step.
+
+    Returns
+    -------
+    un : float
+        The parameter reached (``<= u1``).
+    pb : (d,) float
+        ``C(un)``.
+    guess_error : float
+        ``|chord(u + du) / ln - 1|`` of the starting guess (how far the predictor
+        was off), or -1 when not measured (the guess reached ``u1``).
+    """
+    d = pa.shape[0]
+    lo_du = 0.0
+    lo_c = 0.0
+    hi_du = -1.0
+    hi_c = 0.0
+    guess_error = -1.0
+    un = u
+    pb = pa
+    for it in range(60):
+        un = u + du
+        if un >= u1:
+            un = u1
+            du = u1 - u
+        sn = span_of(breaks, s, un)
+        pb, _, _ = eval_span(breaks, coeffs, sn, un)
+        act = 0.0
+        for j in range(d):
+            act += (pb[j] - pa[j]) ** 2
+        act = math.sqrt(act)
+        if it == 0 and un < u1 and act > 0.0:
+            guess_error = abs(act / ln - 1.0)
+        if abs(act / ln - 1.0) < 1e-6:
+            break
+        if act < ln:
+            if un >= u1:
+                break  # the curve ends within this step
+            lo_du = du
+            lo_c = act
+        else:
+            hi_du = du
+            hi_c = act
+        if hi_du < 0.0:
+            du = du * 2.0 if act <= 0.0 else du * min(ln / act, 2.0) * 1.01
+            if du <= lo_du:
+                du = lo_du * 1.5
+        else:
+            # secant between the bracket ends, kept inside the bracket
+            cand = lo_du + (ln - lo_c) * (hi_du - lo_du) / (hi_c - lo_c) if hi_c > lo_c else -1.0
+            width = hi_du - lo_du
+            if cand <= lo_du + 0.01 * width or cand >= hi_du - 0.01 * width:
+                cand = 0.5 * (lo_du + hi_du)
+            du = cand
+    return un, pb, guess_error
+
+
+@numba.njit(cache=True)
+def chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb):  # pragma: no cover - numba
+    """Largest distance of the curve at 1/4, 1/2, 3/4 of ``[ua, ub]`` from the chord ``[pa, pb]``, mm."""
+    d = pa.shape[0]
+    ll = 0.0
+    for j in range(d):
+        ll += (pb[j] - pa[j]) ** 2
+    worst = 0.0
+    for q in range(1, 4):
+        um = ua + 0.25 * q * (ub - ua)
+        sm = span_of(breaks, s0, um)
+        pm, _, _ = eval_span(breaks, coeffs, sm, um)
+        tt = 0.0
+        for j in range(d):
+            tt += (pm[j] - pa[j]) * (pb[j] - pa[j])
+        t = tt / ll if ll > 0 else 0.0
+        t = min(max(t, 0.0), 1.0)
+        r = 0.0
+        for j in range(d):
+            r += (pa[j] + t * (pb[j] - pa[j]) - pm[j]) ** 2
+        worst = max(worst, math.sqrt(r))
+    return worst
+
+
+@numba.njit(cache=True)
+def nudge(breaks, coeffs, s, u, u0, u1):  # pragma: no cover - numba
+    """A step that made no progress in floating point (|C'| ~ 0 at a cusp): step over the
+    point by a parameter increment tiny on the curve's scale. Returns ``(un, C(un))``."""
+    un = min(u + 1e-9 * (u1 - u0), u1)
+    sn = span_of(breaks, s, un)
+    pb, _, _ = eval_span(breaks, coeffs, sn, un)
+    return un, pb
+
+
+@numba.njit(cache=True)
+def grow(out_u, out_p, out_v, n):  # pragma: no cover - numba
+    """The three output buffers with twice the room, first ``n`` rows kept."""
+    cap = 2 * out_u.shape[0]
+    d = out_p.shape[1]
+    nu = np.empty(cap)
+    nu[:n] = out_u[:n]
+    np_ = np.empty((cap, d))
+    np_[:n] = out_p[:n]
+    nv = np.empty(cap)
+    nv[:n] = out_v[:n]
+    return nu, np_, nv
