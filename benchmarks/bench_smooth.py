@@ -64,7 +64,7 @@ def main(max_n: int) -> None:
               f" (through-point error {err:.1e} mm), constant-period 3000 mm/min x 4 ms {t_ip:.2f} s ->"
               f" {st['n_samples']} samples, chord error max {st['chord_error_max'] * 1e3:.3f} um,"
               f" feed fluctuation max {st['feed_fluctuation_max']:.1e} (Taylor predictor alone"
-              f" {st['taylor_fluctuation_max']:.1e})")
+              f" {st['predictor_fluctuation_max']:.1e})")
         t = time.perf_counter()
         tp = smooth(surface_path_of(pts), feed_mm_min=3000.0, period_ms=4.0)
         print(f"{'':>8s}         smooth() stage (fit + area-weighted dwell schedule + samples + overshoot):"

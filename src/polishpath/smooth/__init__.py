@@ -278,7 +278,9 @@ def smooth(
     ToolPath
         ``curve`` (joined over pieces), ``dwell_params`` (N,), ``samples`` (M, 3),
         ``sample_params`` (M,), ``feed_mm_min`` (M,), ``stats``: the
-        interpolation figures, ``dwell_through_max`` (largest distance between
+        interpolation figures (over all pieces; ``dwell_time_error_p99`` /
+        ``dwell_time_error_rms`` of the relative dwell-time errors beside
+        ``dwell_time_error_max``), ``dwell_through_max`` (largest distance between
         the curve at a dwell parameter and its dwell point, mm), the deviation
         figures of :func:`curve_deviation`, ``piece_params`` (K+1,) and
         ``sample_pieces`` (K+1,) offsets; the times per dwell point are ``ToolPath.dwell_times``.
@@ -325,7 +327,7 @@ def smooth(
                 "Give one time (s) per dwell point, in path order.",
             )
         time_source = "given"
-    samples, sparams, feeds, spieces = [], [], [], [0]
+    samples, sparams, feeds, spieces, dwell_err = [], [], [], [0], []
     agg: dict = {}
     for k in range(len(curves)):
         sl = slice(pieces[k], pieces[k + 1])
@@ -338,9 +340,10 @@ def smooth(
         samples.append(res["samples"])
         sparams.append(res["params"])
         feeds.append(res["feed_mm_min"])
+        dwell_err.append(res["dwell_time_error"])
         spieces.append(spieces[-1] + len(res["params"]))
         for key, val in res["stats"].items():
-            if key in ("n_samples", "duration_s", "curve_length"):
+            if key in ("n_samples", "duration_s", "curve_length", "interpolation_s"):
                 agg[key] = agg.get(key, 0) + val
             elif key.endswith("_min_mm_min"):
                 agg[key] = min(agg.get(key, np.inf), val)
@@ -357,6 +360,9 @@ def smooth(
         else:
             agg[key] = float(np.average(vals, weights=np.diff(spieces)))
     stats = dict(agg)
+    derr = np.abs(np.concatenate(dwell_err))
+    stats.update(dwell_time_error_p99=float(np.percentile(derr, 99)),
+                 dwell_time_error_rms=float(np.sqrt(np.mean(derr**2))))
     stats.update(curve_deviation(curve, dwell_params, xyz, surface_path.normals, pieces, surface, deviation_samples))
     stats.update(
         dwell_through_max=through,
