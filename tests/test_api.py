@@ -1,4 +1,5 @@
-"""The Python API mirrors the command line: polishpath.plan(...) -> Job with the stages' results and .save()."""
+"""The Python API mirrors the command line: polishpath.run(...) -> polishpath.Job with the stages' results and .save();
+polishpath.plan is only the planning stage."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import polishpath
 from polishpath.types import Flattening, PlanarPath, Surface, SurfacePath, ToolPath
 
 
-def test_plan_api_runs_the_job_and_saves(tmp_path):
-    job = polishpath.plan(surface="hemisphere:R=12,triangles=700", spacing=1.0, seed=8, report=False)
+def test_run_api_runs_the_job_and_saves(tmp_path):
+    job = polishpath.run(surface="hemisphere:R=12,triangles=700", spacing=1.0, seed=8, report=False)
+    assert isinstance(job, polishpath.Job)
     assert isinstance(job.surface, Surface) and isinstance(job.flattening, Flattening)
     assert isinstance(job.planar, PlanarPath) and isinstance(job.surface_path, SurfacePath)
     assert isinstance(job.tool_path, ToolPath)
@@ -28,12 +30,21 @@ def test_plan_api_runs_the_job_and_saves(tmp_path):
     assert (out / "path.csv").read_bytes() == written["path_csv"].read_bytes()
 
 
-def test_stage_planner_still_reachable():
+def test_plan_is_only_the_planning_stage():
+    import types
+
     from polishpath.types import Region
 
+    assert isinstance(polishpath.plan, types.ModuleType) and not callable(polishpath.plan)
     t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     p = polishpath.plan.plan(Region(np.c_[5 * np.cos(t), 5 * np.sin(t)]), 1.0, seed=1)
     assert p.n_points > 50
+
+
+def test_job_classes_are_the_pipelines():
+    from polishpath import pipeline
+
+    assert polishpath.Job is pipeline.Job and polishpath.JobConfig is pipeline.JobConfig
 
 
 def test_import_is_light():

@@ -27,12 +27,6 @@ INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces"
 ALLOWED = {st: {u for u in ORDER[:i] if (st, u) not in INDEPENDENT} for i, st in enumerate(ORDER)}
 
 
-# Documented exceptions: (file, imported name) -> why it is not a breach.
-EXCEPTIONS = {
-    ("plan/__init__.py", "pipeline"): "polishpath.plan(...) is the job's Python API: a trampoline to pipeline.run",
-}
-
-
 def stage_of(path: Path) -> str:
     rel = path.relative_to(SRC)
     return rel.parts[0].removesuffix(".py")
@@ -81,7 +75,7 @@ def stage_files():
 def test_stage_imports_follow_the_data_flow(path):
     st = stage_of(path)
     for name, line in imported_stages(path):
-        if name == st or name in CORE or (str(path.relative_to(SRC)), name) in EXCEPTIONS:
+        if name == st or name in CORE:
             continue
         assert name in ALLOWED[st], (
             f"{path.relative_to(SRC)}:{line} imports polishpath.{name}, but the {st} stage may only use "

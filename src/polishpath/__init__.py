@@ -5,13 +5,14 @@ The data flows one way, one subpackage per stage::
     surfaces -> flatten -> plan -> mapping -> smooth -> export / simulate / report
 
 >>> import polishpath
->>> job = polishpath.plan(surface="hemisphere:triangles=5000", spacing=1.0, seed=7)  # doctest: +SKIP
+>>> job = polishpath.run(surface="hemisphere:triangles=5000", spacing=1.0, seed=7)  # doctest: +SKIP
 >>> job.save("out")  # doctest: +SKIP
 
-``polishpath.plan(...)`` (also ``polishpath.run``) runs the whole job like the
-``polishpath plan`` command; the stages are importable one by one
-(``polishpath.surfaces``, ``.flatten``, ``.plan``, ``.mapping``, ``.smooth``,
-``.export``, ``.simulate``, ``.psd``, ``.report``).
+``polishpath.run(...) -> polishpath.Job`` runs the whole job like the
+``polishpath plan`` command (options: :class:`polishpath.JobConfig`). The
+stages are importable one by one (``polishpath.surfaces``, ``.flatten``,
+``.plan`` (the planar planning stage: ``polishpath.plan.plan(region, spacing)``),
+``.mapping``, ``.smooth``, ``.export``, ``.simulate``, ``.psd``, ``.report``).
 """
 
 import importlib as _importlib
@@ -22,7 +23,7 @@ from .types import Flattening, PlanarPath, Provenance, Region, Surface, SurfaceP
 
 
 def run(config=None, **options):
-    """Run the whole job (see :func:`polishpath.pipeline.run`)."""
+    """Run the whole job and return a :class:`Job` (see :func:`polishpath.pipeline.run`)."""
     from .pipeline import run as _run
 
     return _run(config, **options)
@@ -36,17 +37,23 @@ def load_surface(spec, **kw):
 
 
 _STAGES = ("surfaces", "flatten", "plan", "mapping", "smooth", "export", "simulate", "psd", "report", "pipeline")
+# the job's classes, loaded with the pipeline on first use
+_JOB_NAMES = ("Job", "JobConfig")
 
 
 def __getattr__(name):
     # stages load on first use, so `import polishpath` stays light
     if name in _STAGES:
         return _importlib.import_module(f".{name}", __name__)
+    if name in _JOB_NAMES:
+        return getattr(_importlib.import_module(".pipeline", __name__), name)
     raise AttributeError(f"module 'polishpath' has no attribute {name!r}")
 
 
 __all__ = [
     "Flattening",
+    "Job",
+    "JobConfig",
     "PlanarPath",
     "PolishPathError",
     "Provenance",

@@ -36,28 +36,6 @@ __all__ = [
 ]
 
 
-# ``polishpath.plan(...)`` is the Python API of the whole job, mirroring the
-# ``polishpath plan`` command (issue 7): calling this module runs
-# :func:`polishpath.pipeline.run`. ``polishpath.plan.plan(region, spacing, ...)``
-# stays the planar planner of this stage.
-import sys as _sys
-import types as _types
-
-
-class _PlanModule(_types.ModuleType):
-    def __call__(self, config=None, **options):
-        """Run the whole job: ``polishpath.plan(surface=..., spacing=..., seed=...) -> Job``.
-
-        See :func:`polishpath.pipeline.run`; ``job.save(dir)`` writes the outputs.
-        """
-        from ..pipeline import run
-
-        return run(config, **options)
-
-
-_sys.modules[__name__].__class__ = _PlanModule
-
-
 # the peers of the paper's Table 3 (unicursal, maze, fractal, hilbert) register themselves
 from . import peers as _peers  # noqa: E402
 
