@@ -21,11 +21,11 @@ import numpy as np
 
 from polishpath import meshops
 from polishpath.mapping import (
-    honour_surface_spacing,
     locate_points,
     map_to_surface,
     projection_flattening,
 )
+from polishpath.pipeline import plan_on_surface
 from polishpath.types import Flattening, PlanarPath, Provenance, Region, Surface
 
 PAPER = {
@@ -126,10 +126,8 @@ def bench_table2(seed: int, spacing: float = 0.5) -> None:
     print(f"  MABF flattening: {time.perf_counter() - t:.1f} s")
     run("mabf (plain planar grid)", mabf, spacing)
 
-    def planner(h):
-        return plan(region_of(mabf), h, "pseudorandom", seed=seed)
-
-    _, spm, h = honour_surface_spacing(mabf, spacing, planner)
+    hon = plan_on_surface(mabf, region_of(mabf), spacing, seed=seed)
+    spm, h = hon.surface_path, hon.planar_spacing
     st = spm.stats
     rows.append((f"mabf (spacing on part, h={h:.4f})", st["step_mean"], st["n_points"], st["step_max"],
                  st["share_normal"], st["share_long"], len(spm.planar.unreached), float("nan")))

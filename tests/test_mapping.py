@@ -1,4 +1,5 @@
-"""Inverse mapping, projection baseline and step control (issue 5, items 1-3)."""
+"""Inverse mapping, projection baseline and the step bound (issue 5, items 1-3; the re-planning loop is
+tested with the pipeline's wiring in test_pipeline_wiring.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,6 @@ import trimesh
 
 from polishpath.errors import MappingError, ParameterError
 from polishpath.mapping import (
-    honour_surface_spacing,
     jacobian_singular_values,
     locate_points,
     map_to_surface,
@@ -180,27 +180,6 @@ def test_planar_spacing_bounds_every_3d_step(cap):
     assert planar_spacing_for_surface(cylinder_patch(), 0.5) == pytest.approx(0.5, rel=1e-9)
     with pytest.raises(ParameterError):
         planar_spacing_for_surface(cap, -1.0)
-
-
-def test_honour_surface_spacing_replans_until_steps_fit(cap):
-    s = 1.0
-    squeezed = Flattening(cap.surface, cap.uv * 0.6, cap.angles)
-    calls = []
-
-    def planner(h):
-        calls.append(h)
-        return serpentine_path(squeezed, h)
-
-    planar, mapped, h = honour_surface_spacing(squeezed, s, planner, start_quantile=0.3)
-    assert mapped.stats["step_max"] <= SQ2 * s * (1 + 1e-9)
-    assert h == calls[-1] and planar.spacing == h
-    assert mapped.stats["replans"] == len(calls) <= 8
-    assert mapped.stats["step_reduction_factor"] == pytest.approx(h / s)
-    assert mapped.stats["spacing"] == s
-    # the strict bound assumes the worst step everywhere; measuring the actual path allows a
-    # larger spacing, with the largest step within 2 % of the limit
-    assert h > planar_spacing_for_surface(squeezed, s)
-    assert mapped.stats["step_max"] > SQ2 * s / 1.0201
 
 
 def test_overlapping_layers_pick_the_highest():

@@ -258,11 +258,10 @@ def test_interpolation_does_not_stall_at_a_cusp(integrator):
     code = (
         "from polishpath.surfaces import load_surface\n"
         "from polishpath.flatten import boundary_region, flatten\n"
-        "from polishpath.mapping import honour_surface_spacing\n"
-        "from polishpath.plan import plan\n"
+        "from polishpath.pipeline import plan_on_surface\n"
         "from polishpath.smooth import smooth\n"
         "s = load_surface('pentagram:triangles=1200'); flat = flatten(s, 'mabf'); region = boundary_region(flat)\n"
-        "planar, sp, h = honour_surface_spacing(flat, 1.4, lambda hh: plan(region, hh, 'pseudorandom', seed=0))\n"
+        "sp = plan_on_surface(flat, region, 1.4, seed=0).surface_path\n"
         f"tp = smooth(sp, integrator={integrator!r})\n"
         "print(tp.stats['chord_error_max'], tp.stats['dwell_through_max'], len(tp.samples))\n"
     )

@@ -9,8 +9,9 @@ matching 3D triangle. The module also holds
   give the projection path of Table 2;
 * step control on the part: the planar spacing that keeps every 3D step under
   ``max_step_factor x spacing`` (:func:`planar_spacing_for_surface`, the paper's
-  "step reduction factor" found automatically) and a re-planning loop that checks
-  it on an actual path (:func:`honour_surface_spacing`);
+  "step reduction factor" as a bound; the re-planning loop that checks it on an
+  actual path is :func:`polishpath.pipeline.plan_on_surface`, which wires the
+  planner and this stage);
 * the 3D step statistics every path reports (:func:`surface_step_stats`).
 
 Units: mm.
@@ -20,14 +21,12 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable
-
 import numba
 import numpy as np
 
 from . import meshops
 from .errors import MappingError, ParameterError
-from .pathops import piece_offsets, step_lengths, step_mask
+from .pathops import piece_offsets, step_lengths
 from .types import Flattening, PlanarPath, Provenance, Surface, SurfacePath
 
 __all__ = [
@@ -35,7 +34,6 @@ __all__ = [
     "map_to_surface",
     "projection_flattening",
     "planar_spacing_for_surface",
-    "honour_surface_spacing",
     "surface_step_stats",
     "jacobian_singular_values",
 ]
@@ -504,7 +502,7 @@ def planar_spacing_for_surface(
     quantile : float
         Use this area-weighted quantile of the largest singular value instead of
         the maximum (1.0: strict bound; lower values give a larger spacing that
-        :func:`honour_surface_spacing` then checks on the actual path).
+        :func:`polishpath.pipeline.plan_on_surface` then checks on the actual path).
 
     Returns
     -------
@@ -533,95 +531,3 @@ def planar_spacing_for_surface(
             "Use a flattening without degenerate triangles (e.g. MABF), or keep the plain planar grid.",
         )
     return float(max_step_factor * spacing / (SQRT2 * smax))
-
-
-def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
-    """Largest 3D step between consecutive dwell points that are grid neighbours.
-
-    Moves that are not grid steps (a raster's connecting chord along the
-    boundary, the jump between pieces) are transit moves of the pattern, not
-    dwell steps, so they do not set the spacing. Off-grid patterns (spiral):
-    every step within a piece counts.
-    """
-    d = np.linalg.norm(np.diff(mapped.xyz, axis=0), axis=1)
-    if len(d) == 0:
-        return 0.0
-    valid = step_mask(len(mapped.xyz), planar.pieces)
-    if planar.stats.get("on_grid", True):
-        valid &= np.abs(np.diff(planar.ij, axis=0)).max(axis=1) <= 1
-    return float(d[valid].max()) if valid.any() else 0.0
-
-
-def honour_surface_spacing(
-    flat: Flattening,
-    spacing: float,
-    planner: Callable[[float], PlanarPath],
-    *,
-    max_step_factor: float = SQRT2,
-    start_quantile: float = 0.99,
-    max_iter: int = 6,
-) -> tuple[PlanarPath, SurfacePath, float]:
-    """Plan and map so that no 3D step exceeds ``max_step_factor x spacing``.
-
-    Starts from the planar spacing given by an area-weighted quantile of the
-    map's stretch, maps the planned path and measures its largest 3D step, then
-    rescales the planar spacing by ``limit / largest step`` (up or down: a
-    planner that makes few diagonal steps may allow a larger spacing) and
-    re-plans, keeping the largest spacing whose path fits. It stops when a
-    fitting path's largest step is within 2 % of the limit, or after
-    ``max_iter`` plans; if none fitted it falls back to the strict bound of
-    :func:`planar_spacing_for_surface`, which holds for every 8-neighbour step
-    inside the mesh.
-
-    Parameters
-    ----------
-    flat : Flattening
-    spacing : float
-        Wanted spacing on the part, mm.
-    planner : callable
-        ``planner(planar_spacing_mm) -> PlanarPath`` (e.g. a closure over
-        ``polishpath.plan.plan`` with the region, pattern and seed).
-    max_step_factor : float
-        Allowed largest 3D step / spacing.
-    start_quantile : float
-        Quantile of the stretch used for the first try.
-    max_iter : int
-        Most plans before the strict fallback.
-
-    Returns
-    -------
-    planar : PlanarPath
-    mapped : SurfacePath
-        ``stats`` also hold ``planar_spacing``, ``step_reduction_factor``
-        (planar / surface spacing) and ``replans`` (plans made).
-    h : float
-        The planar spacing used, mm.
-    """
-    limit = max_step_factor * spacing
-    h = planar_spacing_for_surface(flat, spacing, max_step_factor, quantile=start_quantile)
-    best = None
-    tries = 0
-    for _ in range(max(1, max_iter)):
-        planar = planner(h)
-        mapped = map_to_surface(flat, planar, surface_spacing=spacing)
-        tries += 1
-        m = _grid_step_max(planar, mapped)
-        fits = m <= limit * (1 + 1e-9)
-        if fits and (best is None or h > best[2]):
-            best = (planar, mapped, h)
-        ratio = limit / m if m > 0 else 2.0
-        if fits and ratio < 1.02:
-            break
-        h_next = h * min(ratio, 2.0) * 0.999
-        if best is not None and h_next <= best[2] * 1.0001:
-            break
-        h = h_next
-    if best is None:
-        h = planar_spacing_for_surface(flat, spacing, max_step_factor, quantile=1.0)
-        planar = planner(h)
-        best = (planar, map_to_surface(flat, planar, surface_spacing=spacing), h)
-        tries += 1
-    planar, mapped, h = best
-    mapped.stats.update(planar_spacing=float(h), step_reduction_factor=float(h / spacing), replans=tries,
-                        grid_step_max=_grid_step_max(planar, mapped))
-    return planar, mapped, float(h)

@@ -67,12 +67,12 @@ def _run_case(surface, spacing: float, seed: int):
     need only the curve, and it is the slow part of smoothing.
     """
     from ..flatten import boundary_region, flatten
-    from ..mapping import honour_surface_spacing
-    from ..plan import plan
+    from ..pipeline import plan_on_surface
 
     flat = flatten(surface, "mabf")
     region = boundary_region(flat)
-    planar, sp, h = honour_surface_spacing(flat, spacing, lambda hh: plan(region, hh, "pseudorandom", seed=seed))
+    hon = plan_on_surface(flat, region, spacing, seed=seed)
+    planar, sp, h = hon.planar, hon.surface_path, hon.planar_spacing
     dev = nurbs_deviation(sp.xyz, planar.pieces)
     return {"surface": surface, "flat": flat, "region": region, "planar": planar, "sp": sp, "nurbs_dev": dev, "h": h}
 

@@ -19,7 +19,8 @@ def table2(doc: Document, figs: FigureSet, st: Settings, res: dict, seed: int) -
     """Write Table 2 and Fig. 9 into ``doc``; the measured rows go to ``res["table2"]``."""
     from .. import meshops
     from ..flatten import boundary_region, flatten
-    from ..mapping import honour_surface_spacing, map_to_surface, projection_flattening
+    from ..mapping import map_to_surface, projection_flattening
+    from ..pipeline import plan_on_surface
     from ..plan import plan
 
     s_mm = st.table2_spacing
@@ -35,7 +36,8 @@ def table2(doc: Document, figs: FigureSet, st: Settings, res: dict, seed: int) -
     rm = boundary_region(mabf)
     pm = plan(rm, s_mm, "pseudorandom", seed=seed)
     sp_plain = map_to_surface(mabf, pm, surface_spacing=s_mm)
-    _, sp_hon, h = honour_surface_spacing(mabf, s_mm, lambda hh: plan(rm, hh, "pseudorandom", seed=seed))
+    hon = plan_on_surface(mabf, rm, s_mm, seed=seed)
+    sp_hon, h = hon.surface_path, hon.planar_spacing
     rows, data = [], []
     for key, label, sp in (("projection", "projection method", sp_proj),
                            ("mabf_plain", f"space MABF mapping, planar grid {s_mm:g} mm (as the paper)", sp_plain),
@@ -61,7 +63,7 @@ def table2(doc: Document, figs: FigureSet, st: Settings, res: dict, seed: int) -
           f"between the 1 mm ({a3:,.0f}) and 0.5 mm counts; its counts are not consistent with a 0.5 mm grid on the "
           f"full hemisphere, while its average projection step (0.853 mm) matches ours. Where the steps differ: a "
           f"planar grid mapped back is stretched where the flattening shrinks lengths, so the plain MABF grid has "
-          f"steps up to ~2 s; `honour_surface_spacing` (docs/machine-output.md, 'step reduction factor') shrinks "
+          f"steps up to ~2 s; `plan_on_surface` (docs/machine-output.md, 'step reduction factor') shrinks "
           f"the planar spacing until no step on the part exceeds √2 s, at the price of more dwell points. The "
           f"paper's proposed remedy (a factor slightly below 1) is that same idea.")
     res["table2"] = data

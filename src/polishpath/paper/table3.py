@@ -163,7 +163,8 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
         A stage failing on this surface (``errors="raise"``).
     """
     from ..flatten import boundary_region, flatten
-    from ..mapping import honour_surface_spacing, map_to_surface, projection_flattening
+    from ..mapping import map_to_surface, projection_flattening
+    from ..pipeline import plan_on_surface
     from ..plan import path_metrics, plan
     from ..plan.peers import bspline_deviation, register_peers
 
@@ -182,7 +183,8 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
     flatten_s = time.perf_counter() - t
     rm = boundary_region(mabf)
     if spacing_on == "surface":
-        pr, spr, h = honour_surface_spacing(mabf, spacing, lambda hh: plan(rm, hh, "pseudorandom", seed=seed))
+        hon = plan_on_surface(mabf, rm, spacing, seed=seed)
+        pr, spr, h = hon.planar, hon.surface_path, hon.planar_spacing
     else:
         pr, spr, h = None, None, spacing
     proj: list = []  # the projection flattening, made when first needed
