@@ -20,11 +20,7 @@ import time
 import numpy as np
 
 from polishpath import meshops
-from polishpath.mapping import (
-    locate_points,
-    map_to_surface,
-    projection_flattening,
-)
+from polishpath.mapping import locate_points, map_to_surface
 from polishpath.pipeline import plan_on_surface
 from polishpath.types import Flattening, PlanarPath, Provenance, Region, Surface
 
@@ -117,7 +113,7 @@ def bench_table2(seed: int, spacing: float = 0.5) -> None:
         return sp
 
     t = time.perf_counter()
-    proj = projection_flattening(surf)
+    proj = flatten(surf, "projection")
     print(f"  projection flattening: {time.perf_counter() - t:.2f} s, folded {proj.metrics['folded_triangles']:.0f},"
           f" degenerate {proj.metrics['degenerate_triangles']:.0f}")
     run("projection", proj, spacing)

@@ -13,9 +13,9 @@ from polishpath.mapping import (
     locate_points,
     map_to_surface,
     planar_spacing_for_surface,
-    projection_flattening,
     surface_step_stats,
 )
+from polishpath.flatten import flatten
 from polishpath.types import Flattening, PlanarPath, Surface
 from test_mapping_helpers import cylinder_patch, grid_faces, serpentine_path, spherical_cap
 
@@ -138,7 +138,7 @@ def test_step_statistics_count_the_normal_range():
 
 
 def test_projection_flattening_is_an_orthogonal_projection(cap):
-    pf = projection_flattening(cap.surface)
+    pf = flatten(cap.surface, "projection")
     assert pf.metrics["folded_triangles"] == 0
     n = np.array(pf.provenance.params["plane_normal"])
     assert abs(abs(n[2]) - 1) < 1e-9  # the cap's best-fit plane is horizontal
@@ -161,7 +161,7 @@ def test_projection_counts_folds():
     x = np.linspace(0, 60, 6)  # long axis: the best-fit plane contains it and cuts the arc
     T, X = np.meshgrid(th, x, indexing="ij")
     xyz = np.stack([X, 10 * np.cos(T), 10 * np.sin(T)], -1).reshape(-1, 3)
-    pf = projection_flattening(Surface(xyz, grid_faces(61, 6)))
+    pf = flatten(Surface(xyz, grid_faces(61, 6)), "projection")
     assert pf.metrics["folded_triangles"] > 0
 
 
@@ -196,7 +196,7 @@ def test_overlapping_layers_pick_the_highest():
     x = np.linspace(0, 60, 6)
     T, X = np.meshgrid(th, x, indexing="ij")
     xyz = np.stack([X, 10 * np.cos(T), 10 * np.sin(T)], -1).reshape(-1, 3)
-    pf = projection_flattening(Surface(xyz, grid_faces(61, 6)))
+    pf = flatten(Surface(xyz, grid_faces(61, 6)), "projection")
     n = np.array(pf.provenance.params["plane_normal"])
     pts = pf.uv[grid_faces(61, 6)].mean(axis=1)  # triangle centroids, some under overhangs
     sp = map_to_surface(pf, PlanarPath(pts, np.zeros((len(pts), 2), np.int64), 1.0))
@@ -222,7 +222,7 @@ def test_projection_method_stretches_steps_at_the_rim():
     # the (length-preserving along meridians) flattened path's do not
     cap = spherical_cap(radius=30.0, max_polar=1.45, n_r=30, n_phi=72)
     s = 1.5
-    proj = projection_flattening(cap.surface)
+    proj = flatten(cap.surface, "projection")
     p_proj = map_to_surface(proj, serpentine_path(proj, s), surface_spacing=s)
     p_flat = map_to_surface(cap, serpentine_path(cap, s), surface_spacing=s)
     assert p_proj.stats["step_max"] > 3 * s

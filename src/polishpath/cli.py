@@ -184,7 +184,7 @@ def flatten_cmd(
     """
     from . import progress
     from .fileio import atomic_open
-    from .pipeline import flatten_surface
+    from .flatten import flatten
     from .surfaces import load_surface
 
     _quiet(quiet, json_out)
@@ -192,7 +192,7 @@ def flatten_cmd(
         with progress.stage("reading surface"):
             s = load_surface(surface, units=units, scale=scale, component=component)
         with progress.stage(f"flattening ({method})"):
-            flat = flatten_surface(s, method)
+            flat = flatten(s, method)
         if output is not None:
             from .flatten import save_obj
 
@@ -339,8 +339,7 @@ def simulate_cmd(
     Example: polishpath simulate hemisphere --spacing 0.5 --seed 1 -o out-sim
     """
     from . import progress
-    from .flatten import boundary_region
-    from .pipeline import flatten_surface
+    from .flatten import boundary_region, flatten
     from .errors import ParameterError
     from .simulate import compare_patterns, gaussian_tif, rotating_tool_tif
     from .surfaces import load_surface
@@ -353,7 +352,7 @@ def simulate_cmd(
         with progress.stage("reading surface"):
             s = load_surface(surface, units=units, scale=scale, component=component)
         with progress.stage(f"flattening ({method})"):
-            region = boundary_region(flatten_surface(s, method))
+            region = boundary_region(flatten(s, method))
         run_dir = output
         sim_dir = output / "simulation" if (output / "summary.json").exists() else output
         with progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):

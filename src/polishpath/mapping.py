@@ -4,9 +4,6 @@ Each planar dwell point is located in its triangle of the flattened mesh, turned
 into area coordinates (Eq. 6-9) and carried to the same area coordinates of the
 matching 3D triangle. The module also holds
 
-* the paper's projection-method baseline as a :class:`~polishpath.types.Flattening`
-  (:func:`projection_flattening`), so the same planner and :func:`map_to_surface`
-  give the projection path of Table 2;
 * step control on the part: the planar spacing that keeps every 3D step under
   ``max_step_factor x spacing`` (:func:`planar_spacing_for_surface`, the paper's
   "step reduction factor" as a bound; the re-planning loop that checks it on an
@@ -21,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+
 import numba
 import numpy as np
 
@@ -32,7 +30,6 @@ from .types import Flattening, PlanarPath, Provenance, Surface, SurfacePath
 __all__ = [
     "locate_points",
     "map_to_surface",
-    "projection_flattening",
     "planar_spacing_for_surface",
     "surface_step_stats",
     "jacobian_singular_values",
@@ -311,12 +308,18 @@ def _vertex_area_ratio(surface: Surface, uv: np.ndarray) -> np.ndarray:
     return np.divide(s3, s2, out=np.full_like(s3, np.nan), where=s2 > 0)
 
 
-def _projection_heights(flat: Flattening) -> np.ndarray | None:
-    prm = flat.provenance.params
-    if flat.provenance.method == "projection" and "plane_normal" in prm:
-        nrm = np.asarray(prm["plane_normal"], dtype=np.float64)
-        return flat.surface.vertices @ nrm
-    return None
+def _layer_heights(flat: Flattening) -> np.ndarray | None:
+    """Vertex heights along the plane normal of a flattening that can fold over itself, (V,) mm.
+
+    A flattening whose layers may overlap in the plane (the projection method's)
+    records the normal of its plane as ``provenance.params["plane_normal"]``;
+    where layers overlap, the highest one along it is the one a point lifts to.
+    None for flattenings without one (they do not overlap).
+    """
+    nrm = flat.provenance.params.get("plane_normal")
+    if nrm is None:
+        return None
+    return flat.surface.vertices @ np.asarray(nrm, dtype=np.float64)
 
 
 def map_to_surface(
@@ -364,7 +367,7 @@ def map_to_surface(
     pts = path.uv
     if len(pts) == 0:
         raise MappingError("The planar path has no dwell point.", "Plan with a smaller spacing or a larger region.")
-    fid, bary, snap = locate_points(flat.uv, surf.faces, pts, tol=tol, heights=_projection_heights(flat))
+    fid, bary, snap = locate_points(flat.uv, surf.faces, pts, tol=tol, heights=_layer_heights(flat))
     bad = np.flatnonzero(fid < 0)
     if len(bad):
         k = int(bad[0])
@@ -399,60 +402,6 @@ def map_to_surface(
     )
     return SurfacePath(xyz=xyz, normals=nrm, face_ids=fid, bary=bary, dwell_weight=w, planar=path,
                        provenance=prov, stats=stats)
-
-
-# --------------------------------------------------------------------------------------
-# projection-method baseline
-# --------------------------------------------------------------------------------------
-
-
-def projection_flattening(surface: Surface) -> Flattening:
-    """The projection method's "flattening": orthogonal projection onto the best-fit plane.
-
-    Parameters
-    ----------
-    surface : Surface
-        The part, (V, 3) vertices in mm.
-
-    Returns
-    -------
-    Flattening
-        ``uv`` (V, 2) mm = coordinates in the plane through the vertex centroid
-        spanned by the two leading principal axes (no rescaling: the projection
-        method plans with the true spacing on the projection). The plane normal
-        is chosen so that most of the area projects counter-clockwise; lifting a
-        planar point back with :func:`map_to_surface` is then lifting it along
-        that normal. ``metrics``: ``folded_triangles`` (project clockwise: the
-        surface folds over the plane; where layers overlap the highest one is
-        taken), ``degenerate_triangles`` (project to zero area, e.g. vertical
-        walls), ``area_ratio`` (projected / true area). ``provenance.params``
-        holds ``plane_normal`` and ``plane_origin``.
-    """
-    t0 = time.perf_counter()
-    v = surface.vertices
-    c = v.mean(axis=0)
-    # PCA: the right singular vectors of the centred vertices
-    _, _, vt = np.linalg.svd(v - c, full_matrices=False)
-    e1, e2 = vt[0], vt[1]
-    nrm = np.cross(e1, e2)
-    uv = (v - c) @ np.stack([e1, e2], axis=1)
-    sa = meshops.face_areas(uv, surface.faces, signed=True)
-    if sa.sum() < 0:  # flip so that the surface projects counter-clockwise
-        e2 = -e2
-        nrm = -nrm
-        uv[:, 1] = -uv[:, 1]
-        sa = -sa
-    a3 = meshops.face_areas(v, surface.faces)
-    eps = 1e-12 * max(float(np.ptp(uv, axis=0).max()), 1e-300) ** 2
-    metrics = {
-        "folded_triangles": float(np.count_nonzero(sa < -eps)),
-        "degenerate_triangles": float(np.count_nonzero(np.abs(sa) <= eps)),
-        "area_ratio": float(np.abs(sa).sum() / a3.sum()) if a3.sum() > 0 else float("nan"),
-    }
-    prov = Provenance("flatten", "projection",
-                      {"plane_normal": nrm.tolist(), "plane_origin": c.tolist(), "plane_axes": [e1.tolist(), e2.tolist()]})
-    return Flattening(surface=surface, uv=uv, angles=meshops.corner_angles(uv, surface.faces),
-                      metrics=metrics, timings={"total": time.perf_counter() - t0}, provenance=prov)
 
 
 # --------------------------------------------------------------------------------------

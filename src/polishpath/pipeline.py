@@ -312,17 +312,6 @@ def _save_arrays(job: Job, path: Path) -> None:
         np.savez_compressed(fh, **arrays)
 
 
-def flatten_surface(surface: Surface, method: str) -> Flattening:
-    """Flatten with a method name; ``projection`` is the paper's projection baseline."""
-    if method == "projection":
-        from .mapping import projection_flattening
-
-        return projection_flattening(surface)
-    from .flatten import flatten
-
-    return flatten(surface, method)
-
-
 @dataclass(frozen=True)
 class SurfacePlan:
     """A path planned in the plane and carried onto the part (:func:`plan_on_surface`).
@@ -563,7 +552,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     >>> job = run(surface="hemisphere:triangles=5000", spacing=1.0, seed=7)  # doctest: +SKIP
     >>> job.save("out")  # doctest: +SKIP
     """
-    from .flatten import boundary_region
+    from .flatten import boundary_region, flatten
     from .plan import path_metrics
     from .smooth import smooth
     from .surfaces import load_surface
@@ -577,7 +566,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     with progress.stage("reading surface", timings, "surface"):
         surface = load_surface(cfg.surface, units=cfg.units, scale=cfg.scale, component=cfg.component)
     with progress.stage(f"flattening ({cfg.method})", timings, "flatten"):
-        flat = flatten_surface(surface, cfg.method)
+        flat = flatten(surface, cfg.method)
         region = boundary_region(flat)
     with progress.stage(f"planning {cfg.pattern} path", timings, "plan"):
         sp = plan_on_surface(flat, region, cfg.spacing, pattern=cfg.pattern, seed=cfg.seed, spacing_on=cfg.spacing_on,

@@ -1,4 +1,4 @@
-"""``flatten(surface, method)``: one entry point for MABF, classic ABF and LSCM."""
+"""``flatten(surface, method)``: one entry point for MABF, classic ABF, LSCM and the projection baseline."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from ..types import Flattening, Provenance, Region, Surface
 from .metrics import flattening_metrics
 from .topology import check_disc_mesh, fill_holes, outer_loop_index
 
-METHODS = ("mabf", "abf", "lscm")
+METHODS = ("mabf", "abf", "lscm", "projection")
 LAYOUTS = ("midpoint", "least_squares", "midpoint_area")
 
 
@@ -71,10 +71,14 @@ def flatten(
     ----------
     surface : Surface
         Manifold, one component, at least one boundary loop, no handles.
-    method : {"mabf", "abf", "lscm"}
+    method : {"mabf", "abf", "lscm", "projection"}
         ``"mabf"``: the paper's angle problem solved in matrix form (default);
         ``"abf"``: classic ABF by Lagrange-Newton (slow baseline);
-        ``"lscm"``: libigl's least-squares conformal map (needs ``libigl``).
+        ``"lscm"``: libigl's least-squares conformal map (needs ``libigl``);
+        ``"projection"``: the paper's projection baseline, orthogonal projection
+        onto the best-fit plane (:func:`polishpath.flatten.projection.projection_flattening`:
+        no disc check, no rescaling, takes no layout or option; its folds are the
+        point of the baseline, so ``check`` does not apply).
     layout : {"midpoint", "least_squares", "midpoint_area"}, optional
         Angle-to-plane step for "mabf" / "abf". Default ``"midpoint"`` (the
         paper's breadth-first midpoint layout, sizes propagated from the parent
@@ -120,6 +124,13 @@ def flatten(
     bad = set(options) - known
     if bad:
         raise ParameterError(f"Unknown flatten option(s): {', '.join(sorted(bad))}.", f"Known options: {', '.join(sorted(known))}.")
+    if method == "projection":
+        if layout is not None or options:
+            raise ParameterError("method='projection' projects the vertices and takes no layout or option.",
+                                 "Drop the layout and options.")
+        from .projection import projection_flattening
+
+        return projection_flattening(surface)
     t_start = time.perf_counter()
     v = surface.vertices
     f = surface.faces

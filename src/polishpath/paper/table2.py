@@ -19,14 +19,14 @@ def table2(doc: Document, figs: FigureSet, st: Settings, res: dict, seed: int) -
     """Write Table 2 and Fig. 9 into ``doc``; the measured rows go to ``res["table2"]``."""
     from .. import meshops
     from ..flatten import boundary_region, flatten
-    from ..mapping import map_to_surface, projection_flattening
+    from ..mapping import map_to_surface
     from ..pipeline import plan_on_surface
     from ..plan import plan
 
     s_mm = st.table2_spacing
     doc.h(2, "Table 2 — projection vs space MABF mapping on the hemisphere")
     surf = load(f"hemisphere:R=30,triangles={st.table2_triangles}")
-    proj = projection_flattening(surf)
+    proj = flatten(surf, "projection")
     rp = boundary_region(proj)
     pp = plan(rp, s_mm, "pseudorandom", seed=seed)
     sp_proj = map_to_surface(proj, pp, surface_spacing=s_mm)

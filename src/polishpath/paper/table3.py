@@ -163,7 +163,7 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
         A stage failing on this surface (``errors="raise"``).
     """
     from ..flatten import boundary_region, flatten
-    from ..mapping import map_to_surface, projection_flattening
+    from ..mapping import map_to_surface
     from ..pipeline import plan_on_surface
     from ..plan import path_metrics, plan
     from ..plan.peers import bspline_deviation, register_peers
@@ -195,7 +195,7 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
             t = time.perf_counter()
             if key == "projection":
                 if not proj:
-                    pf = projection_flattening(surface)
+                    pf = flatten(surface, "projection")
                     proj.extend([pf, boundary_region(pf)])
                 flat, region = proj
                 path, sp = plan(region, spacing, "pseudorandom", seed=seed), None
