@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
-CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "_version"}
+CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "_version"}
 # pipeline (the wiring) sits above every stage; the paper reproduction above it
 ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report", "pipeline", "paper"]
 # the planner and flattening do not need each other's code either way: both take plain data

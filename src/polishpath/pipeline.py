@@ -126,12 +126,10 @@ class JobConfig:
         return d
 
     def to_toml(self) -> str:
-        """The config as TOML (``None`` options left out), for ``job.toml``."""
-        import tomli_w
+        """The config as TOML (``None`` options left out): the text of ``job.toml``."""
+        from .runfolder import job_toml
 
-        d = {k: v for k, v in self.to_dict().items() if v is not None}
-        head = f"# polishpath {__version__} job: re-run exactly with `polishpath plan --config job.toml`\n"
-        return head + tomli_w.dumps({"job": d})
+        return job_toml(self.to_dict())
 
     @classmethod
     def from_toml(cls, path: str | Path, **overrides: Any) -> JobConfig:
@@ -238,10 +236,12 @@ class Job:
         -------
         dict of str -> Path
             What was written: ``path_csv``, ``toolpath_xyz``, ``gcode``,
-            ``summary``, ``job``, ``flat_obj``, and ``report`` when made.
+            ``flat_obj``, the run-folder files ``arrays``, ``summary``, ``job``
+            (:func:`polishpath.runfolder.write_run`), and ``report`` when made.
         """
         from . import export
         from .flatten import save_obj
+        from .runfolder import write_run
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -258,13 +258,9 @@ class Job:
             with atomic_open(out / "flat.obj", "w") as fh:
                 save_obj(self.flattening, fh)
             written["flat_obj"] = out / "flat.obj"
-            with atomic_open(out / "job.toml", "w") as fh:
-                fh.write(self._job_config_with_seed().to_toml())
-            written["job"] = out / "job.toml"
-            _save_arrays(self, out / "run.npz")
-            written["arrays"] = out / "run.npz"
-            export.write_summary_json(self.summary(), out / "summary.json")
-            written["summary"] = out / "summary.json"
+            written.update(write_run(out, surface=self.surface, flattening=self.flattening, region=self.region,
+                                     planar=self.planar, surface_path=self.surface_path, tool_path=self.tool_path,
+                                     summary=self.summary(), config=self._job_config_with_seed().to_dict()))
         if report if report is not None else self.config.report:
             try:
                 from .report import write_report
@@ -290,26 +286,6 @@ class Job:
             "dwell_points": self.planar.n_points,
             **{k: v for k, v in self.config.to_dict().items() if k not in ("surface", "seed") and v is not None},
         }
-
-
-def _save_arrays(job: Job, path: Path) -> None:
-    """Every stage's arrays in one ``.npz`` so ``polishpath report DIR`` can rebuild figures."""
-    tp, sp, pp, fl = job.tool_path, job.surface_path, job.planar, job.flattening
-    arrays = {
-        "vertices": job.surface.vertices, "faces": job.surface.faces, "uv": fl.uv, "angles": fl.angles,
-        "plan_uv": pp.uv, "plan_ij": pp.ij, "plan_pieces": pp.pieces, "plan_unreached": pp.unreached,
-        "xyz": sp.xyz, "normals": sp.normals, "dwell_weight": sp.dwell_weight,
-        "samples": tp.samples, "feed_mm_min": tp.feed_mm_min, "dwell_params": tp.dwell_params,
-        "dwell_times": tp.dwell_times if tp.dwell_times is not None else np.zeros(0),
-        "knots": tp.curve.knots, "control_points": tp.curve.control_points,
-    }
-    for k, v in fl.residuals.items():
-        arrays[f"residual_{k}"] = np.asarray(v)
-    for i, loop in enumerate(job.region.loops):
-        arrays[f"region_loop_{i}"] = loop
-
-    with atomic_open(path, "wb") as fh:
-        np.savez_compressed(fh, **arrays)
 
 
 @dataclass(frozen=True)

@@ -1,165 +1,24 @@
 """Read a finished run folder and derive what the report draws.
 
-Everything here works from the files alone (``summary.json`` and ``run.npz``
-written by :meth:`polishpath.pipeline.Job.save`), so a report can be rebuilt
-long after the job ran. Units: mm, radians inside, degrees where a name says so.
+Everything here works from the files alone, read through the run-folder
+format (:mod:`polishpath.runfolder`: ``summary.json``, ``run.npz``, ``job.toml``
+and a ``simulation/`` subfolder), so a report can be rebuilt long after the job
+ran. Units: mm, radians inside, degrees where a name says so.
 """
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
 # the path maths of the report, re-exported for its public API
 from ..pathops import DIRECTION_NAMES, step_lengths, step_mask, turn_angles_deg  # noqa: F401
 from ..pathops import direction_counts as grid_directions  # noqa: F401
+from ..runfolder import RunData, read_run  # noqa: F401  (RunData: the report's figures take it)
 
-#: names of the 8 grid directions, counter-clockwise from +i (grid frame)
-
-
-@dataclass
-class RunData:
-    """The files of one run folder.
-
-    Attributes
-    ----------
-    folder : Path
-        The run folder.
-    summary : dict
-        Contents of ``summary.json``.
-    arrays : dict of str -> ndarray
-        Contents of ``run.npz`` (any array may be missing).
-    simulation : dict
-        ``{"folder": Path, "summary": dict or None, "table": str or None,
-        "images": [Path, ...]}`` when ``folder/simulation`` exists, else empty.
-    """
-
-    folder: Path
-    summary: dict[str, Any]
-    arrays: dict[str, np.ndarray] = field(default_factory=dict)
-    simulation: dict[str, Any] = field(default_factory=dict)
-
-    def get(self, name: str) -> np.ndarray | None:
-        """Array ``name`` or None when the run did not save it (or it is empty)."""
-        a = self.arrays.get(name)
-        if a is None or a.size == 0:
-            return None
-        return a
-
-    def section(self, *keys: str) -> dict[str, Any]:
-        """Nested dict of ``summary.json`` (empty dict where absent or not a dict)."""
-        d: Any = self.summary
-        for k in keys:
-            d = d.get(k) if isinstance(d, dict) else None
-        return d if isinstance(d, dict) else {}
-
-    @property
-    def spacing(self) -> float | None:
-        """Intended dwell-point spacing on the part, mm (the ``s`` of the normal range [s, sqrt(2) s])."""
-        for v in (self.section("plan").get("surface_spacing_mm"), self.section("config").get("spacing")):
-            if isinstance(v, (int, float)) and math.isfinite(v) and v > 0:
-                return float(v)
-        return None
-
-    @property
-    def region_loops(self) -> list[np.ndarray]:
-        """Planar boundary loops, outer first, each (L, 2) mm."""
-        loops = []
-        i = 0
-        while f"region_loop_{i}" in self.arrays:
-            loops.append(np.asarray(self.arrays[f"region_loop_{i}"], dtype=float))
-            i += 1
-        return loops
-
-    @property
-    def residuals(self) -> dict[str, np.ndarray]:
-        """Constraint residuals present in the run (``triangle``, ``vertex``, ``wheel``), any shape flattened."""
-        out = {}
-        for k in sorted(self.arrays):
-            if k.startswith("residual_") and self.arrays[k].size:
-                out[k[len("residual_"):]] = np.asarray(self.arrays[k], dtype=float).ravel()
-        return out
-
-
-def load_run(folder: str | Path) -> RunData:
-    """Read a run folder written by ``polishpath plan ... -o DIR``.
-
-    Parameters
-    ----------
-    folder : path
-        The run folder; must hold ``summary.json`` and ``run.npz``.
-
-    Returns
-    -------
-    RunData
-
-    Raises
-    ------
-    InputError
-        The folder does not exist, is not a polishpath run, or its files are unreadable.
-    """
-    d = Path(folder)
-    if not d.is_dir():
-        raise InputError(f"{d} is not a folder.",
-                         "Give the output folder of a finished run (`polishpath plan SURFACE -o DIR`).")
-    sp = d / "summary.json"
-    if not sp.is_file():
-        raise InputError(f"{d} is not a polishpath run folder: it has no summary.json.",
-                         "Give the folder written by `polishpath plan SURFACE -o DIR`, "
-                         "or run the plan again to write it.")
-    try:
-        summary = json.loads(sp.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise InputError(f"{sp} cannot be read as JSON ({e}).",
-                         "The run may have been interrupted; run `polishpath plan` again.") from e
-    if not isinstance(summary, dict):
-        raise InputError(f"{sp} does not hold a JSON object.", "Run `polishpath plan` again to rewrite it.")
-    npz = d / "run.npz"
-    if not npz.is_file():
-        raise InputError(f"{d} has no run.npz (the arrays the report draws).",
-                         "Run `polishpath plan` again with this version of polishpath to write it.")
-    try:
-        with np.load(npz, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except Exception as e:  # zipfile / ValueError / OSError: all mean a broken file
-        raise InputError(f"{npz} cannot be read ({e}).",
-                         "The run may have been interrupted; run `polishpath plan` again.") from e
-    return RunData(d, summary, arrays, _load_simulation(d / "simulation"))
-
-
-def _load_simulation(sim: Path) -> dict[str, Any]:
-    """What a ``polishpath simulate`` run left in ``sim`` (defensive: any file may be missing)."""
-    if not sim.is_dir():
-        return {}
-    out: dict[str, Any] = {"folder": sim, "summary": None, "table": None, "images": []}
-    for name in ("summary.json", "results.json"):
-        p = sim / name
-        if p.is_file():
-            try:
-                data = json.loads(p.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-                continue
-            out["summary"] = data
-            break
-    t = sim / "table.txt"
-    if t.is_file():
-        try:
-            out["table"] = t.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            pass
-    imgs = sorted(sim.glob("*.png"))
-    # PSD curves first, then the residual maps, then anything else
-    imgs.sort(key=lambda p: (0 if "psd" in p.stem.lower() else 1 if "resid" in p.stem.lower() else 2, p.name))
-    out["images"] = imgs
-    if out["summary"] is None and out["table"] is None and not imgs:
-        return {}
-    return out
+#: the report's name for :func:`polishpath.runfolder.read_run` (part of its public API)
+load_run = read_run
 
 
 # --- derived quantities -------------------------------------------------------------

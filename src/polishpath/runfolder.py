@@ -1,0 +1,382 @@
+"""The run folder as a format: what ``polishpath plan -o DIR`` leaves for later readers.
+
+One module writes and reads the three files that describe a run (the machine
+files ``path.csv``, ``toolpath.xyz``, ``toolpath.nc`` and ``flat.obj`` are the
+export stage's):
+
+* ``run.npz``: every stage's arrays (:data:`ARRAY_KEYS`, units in docs/run-folder.md);
+* ``summary.json``: every figure and parameter of the run, with the format's
+  version under :data:`SCHEMA_KEY`;
+* ``job.toml``: the job's options (``[job]`` table), to re-run it exactly.
+
+:func:`write_run` writes them (atomically, file by file) and :func:`read_run`
+reads them back into a :class:`RunData`, which gives the raw arrays and the
+stages' dataclasses rebuilt from them (``run.surface``, ``run.planar``,
+``run.surface_path``, ``run.tool_path`` ...). The report and ``polishpath
+simulate RUN_DIR`` read run folders through this module only.
+
+Adding a key: write it in :func:`write_run`, list it in :data:`ARRAY_KEYS` (or
+under the summary's sections) and in docs/run-folder.md; bump
+:data:`SCHEMA_VERSION` only when a reader of the old format would misread the
+new one (a renamed or re-meant key), not for an added key.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._version import __version__
+from .errors import InputError
+from .fileio import atomic_open, jsonable
+from .types import Flattening, NurbsCurve, PlanarPath, Provenance, Region, Surface, SurfacePath, ToolPath
+
+#: version of the run-folder format written by this polishpath
+SCHEMA_VERSION = 1
+#: top-level key of ``summary.json`` holding the format version (absent: a folder from before the format had one, 0)
+SCHEMA_KEY = "run_folder_schema"
+
+ARRAYS_FILE = "run.npz"
+SUMMARY_FILE = "summary.json"
+JOB_FILE = "job.toml"
+SIMULATION_DIR = "simulation"
+
+#: every fixed key of ``run.npz`` (plus ``residual_<name>`` per flattening residual and
+#: ``region_loop_<i>`` per boundary loop of the planning region, outer first)
+ARRAY_KEYS = (
+    "vertices", "faces",                                   # surface
+    "uv", "angles",                                        # flattening
+    "plan_uv", "plan_ij", "plan_pieces", "plan_unreached",  # planar path
+    "plan_spacing", "plan_origin", "plan_rotation",
+    "xyz", "normals", "dwell_weight", "face_ids", "bary",  # path on the part
+    "samples", "sample_params", "feed_mm_min", "dwell_params", "dwell_times",  # tool path
+    "knots", "control_points", "curve_weights", "curve_degree",
+)
+
+
+def write_run(
+    out_dir: str | Path,
+    *,
+    surface: Surface,
+    flattening: Flattening,
+    region: Region,
+    planar: PlanarPath,
+    surface_path: SurfacePath,
+    tool_path: ToolPath,
+    summary: dict[str, Any],
+    config: dict[str, Any],
+) -> dict[str, Path]:
+    """Write ``run.npz``, ``summary.json`` and ``job.toml`` of a run into ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : path
+        The run folder (created if missing).
+    surface, flattening, region, planar, surface_path, tool_path
+        The stages' results.
+    summary : dict
+        Figures of the run (JSON-ready values or numpy scalars); :data:`SCHEMA_KEY` is added.
+    config : dict
+        The job's options (``None`` values are left out of ``job.toml``).
+
+    Returns
+    -------
+    dict of str -> Path
+        ``arrays``, ``summary``, ``job``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    tp, sp, pp, fl = tool_path, surface_path, planar, flattening
+    arrays: dict[str, Any] = {
+        "vertices": surface.vertices, "faces": surface.faces, "uv": fl.uv, "angles": fl.angles,
+        "plan_uv": pp.uv, "plan_ij": pp.ij, "plan_pieces": pp.pieces, "plan_unreached": pp.unreached,
+        "plan_spacing": np.float64(pp.spacing), "plan_origin": pp.origin, "plan_rotation": np.float64(pp.rotation),
+        "xyz": sp.xyz, "normals": sp.normals, "dwell_weight": sp.dwell_weight,
+        "face_ids": sp.face_ids, "bary": sp.bary,
+        "samples": tp.samples, "sample_params": tp.sample_params, "feed_mm_min": tp.feed_mm_min,
+        "dwell_params": tp.dwell_params,
+        "dwell_times": tp.dwell_times if tp.dwell_times is not None else np.zeros(0),
+        "knots": tp.curve.knots, "control_points": tp.curve.control_points,
+        "curve_weights": tp.curve.weights, "curve_degree": np.int64(tp.curve.degree),
+    }
+    for k, v in fl.residuals.items():
+        arrays[f"residual_{k}"] = np.asarray(v)
+    for i, loop in enumerate(region.loops):
+        arrays[f"region_loop_{i}"] = loop
+    written = {"arrays": out / ARRAYS_FILE, "summary": out / SUMMARY_FILE, "job": out / JOB_FILE}
+    with atomic_open(written["arrays"], "wb") as fh:
+        np.savez_compressed(fh, **arrays)
+    with atomic_open(written["summary"], "w") as fh:
+        json.dump(jsonable({SCHEMA_KEY: SCHEMA_VERSION, **summary}), fh, indent=2, sort_keys=False, allow_nan=False)
+        fh.write("\n")
+    with atomic_open(written["job"], "w") as fh:
+        fh.write(job_toml(config))
+    return written
+
+
+def job_toml(config: dict[str, Any]) -> str:
+    """The job's options as the text of ``job.toml`` (``[job]`` table, ``None`` options left out)."""
+    import tomli_w
+
+    d = {k: (list(v) if isinstance(v, tuple) else v) for k, v in config.items() if v is not None}
+    head = f"# polishpath {__version__} job: re-run exactly with `polishpath plan --config job.toml`\n"
+    return head + tomli_w.dumps({"job": d})
+
+
+def read_toml(path: str | Path, what: str = "job file") -> dict[str, Any]:
+    """Read a TOML file (a ``job.toml`` or a job config), turning its problems into :class:`InputError`."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{what} {str(p)!r} does not exist.", "Check the path.")
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{p.name} is not valid TOML: {exc}.", "Fix the line it names.") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{p} cannot be read ({exc}).", "Check the file.") from None
+
+
+@dataclass(frozen=True)
+class RunData:
+    """A run folder read back (:func:`read_run`).
+
+    Attributes
+    ----------
+    folder : Path
+        The run folder.
+    summary : dict
+        Contents of ``summary.json``.
+    arrays : dict of str -> ndarray
+        Contents of ``run.npz`` (keys in :data:`ARRAY_KEYS`; any may be missing in an old folder).
+    config : dict
+        The ``[job]`` table of ``job.toml`` (empty when the folder has none).
+    schema : int
+        Format version of the folder (0: written before the format had one).
+    simulation : dict
+        ``{"folder": Path, "summary": dict or None, "table": str or None,
+        "images": [Path, ...]}`` when ``folder/simulation`` holds a
+        ``polishpath simulate`` result, else empty.
+
+    The stages' results, rebuilt on first use (``InputError`` when the folder
+    lacks an array they need): :attr:`surface`, :attr:`flattening`,
+    :attr:`region`, :attr:`planar`, :attr:`surface_path`, :attr:`tool_path`.
+    """
+
+    folder: Path
+    summary: dict[str, Any]
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    config: dict[str, Any] = field(default_factory=dict)
+    schema: int = SCHEMA_VERSION
+    simulation: dict[str, Any] = field(default_factory=dict)
+
+    # --- raw access -------------------------------------------------------------------
+
+    def get(self, name: str) -> np.ndarray | None:
+        """Array ``name`` or None when the run did not save it (or it is empty)."""
+        a = self.arrays.get(name)
+        if a is None or a.size == 0:
+            return None
+        return a
+
+    def section(self, *keys: str) -> dict[str, Any]:
+        """Nested dict of ``summary.json`` (empty dict where absent or not a dict)."""
+        d: Any = self.summary
+        for k in keys:
+            d = d.get(k) if isinstance(d, dict) else None
+        return d if isinstance(d, dict) else {}
+
+    @property
+    def spacing(self) -> float | None:
+        """Intended dwell-point spacing on the part, mm (the ``s`` of the normal range [s, sqrt(2) s])."""
+        for v in (self.section("plan").get("surface_spacing_mm"), self.section("config").get("spacing")):
+            if isinstance(v, (int, float)) and math.isfinite(v) and v > 0:
+                return float(v)
+        return None
+
+    @property
+    def region_loops(self) -> list[np.ndarray]:
+        """Planar boundary loops, outer first, each (L, 2) mm."""
+        loops = []
+        i = 0
+        while f"region_loop_{i}" in self.arrays:
+            loops.append(np.asarray(self.arrays[f"region_loop_{i}"], dtype=float))
+            i += 1
+        return loops
+
+    @property
+    def residuals(self) -> dict[str, np.ndarray]:
+        """Constraint residuals present in the run (``triangle``, ``vertex``, ``wheel``), any shape flattened."""
+        out = {}
+        for k in sorted(self.arrays):
+            if k.startswith("residual_") and self.arrays[k].size:
+                out[k[len("residual_"):]] = np.asarray(self.arrays[k], dtype=float).ravel()
+        return out
+
+    # --- the stages' results ------------------------------------------------------------
+
+    def _need(self, *names: str) -> list[np.ndarray]:
+        missing = [n for n in names if n not in self.arrays]
+        if missing:
+            raise InputError(
+                f"{self.folder / ARRAYS_FILE} lacks {', '.join(missing)} (written by an older polishpath, "
+                f"run-folder format {self.schema}).",
+                "Run the job again with `polishpath plan --config DIR/job.toml -o DIR`.",
+            )
+        return [self.arrays[n] for n in names]
+
+    def _provenance(self, section: str, stage: str) -> Provenance:
+        d = self.section(section, "provenance")
+        return Provenance(d.get("stage", stage), d.get("method", "unknown"), dict(d.get("params") or {}),
+                          d.get("seed"), d.get("version", "unknown"))
+
+    @cached_property
+    def surface(self) -> Surface:
+        """The part, (V, 3) vertices in mm."""
+        v, f = self._need("vertices", "faces")
+        s = self.section("surface")
+        return Surface(v, f, name=str(s.get("name") or "surface"), source=str(s.get("source") or ""))
+
+    @cached_property
+    def flattening(self) -> Flattening:
+        """The flattening, ``uv`` (V, 2) mm."""
+        uv, angles = self._need("uv", "angles")
+        fl = self.section("flattening")
+        return Flattening(self.surface, uv, angles, residuals=self.residuals, metrics=dict(fl.get("metrics") or {}),
+                          timings=dict(fl.get("timings_s") or {}), provenance=self._provenance("flattening", "flatten"))
+
+    @cached_property
+    def region(self) -> Region:
+        """The planning region in the plane of the flattening, mm."""
+        loops = self.region_loops
+        if not loops:
+            self._need("region_loop_0")
+        return Region(loops[0], tuple(loops[1:]))
+
+    @cached_property
+    def planar(self) -> PlanarPath:
+        """The planar path: dwell points ``uv`` (N, 2) mm in path order."""
+        uv, ij, pieces, unreached, h, origin, rot = self._need(
+            "plan_uv", "plan_ij", "plan_pieces", "plan_unreached", "plan_spacing", "plan_origin", "plan_rotation")
+        p = self.section("plan")
+        return PlanarPath(uv, ij, float(h), origin=origin, rotation=float(rot), pattern=str(p.get("pattern", "unknown")),
+                          pieces=pieces, unreached=unreached.reshape(-1, 2),
+                          n_inside=int(len(uv) + len(unreached.reshape(-1, 2))),
+                          provenance=self._provenance("plan", "plan"), stats=dict(p.get("stats") or {}))
+
+    @cached_property
+    def surface_path(self) -> SurfacePath:
+        """The dwell points on the part, ``xyz`` (N, 3) mm, with normals and dwell weights."""
+        xyz, nrm, fid, bary, w = self._need("xyz", "normals", "face_ids", "bary", "dwell_weight")
+        m = self.section("map")
+        return SurfacePath(xyz, nrm, fid, bary, w, self.planar, provenance=self._provenance("map", "map"),
+                           stats=dict(m.get("stats") or {}))
+
+    @cached_property
+    def tool_path(self) -> ToolPath:
+        """The machine path: ``samples`` (M, 3) mm at ``period_ms``, ``feed_mm_min`` (M,) mm/min."""
+        knots, cp, w, deg, dp, smp, spar, feed, dt = self._need(
+            "knots", "control_points", "curve_weights", "curve_degree", "dwell_params", "samples", "sample_params",
+            "feed_mm_min", "dwell_times")
+        sm = self.section("smooth")
+        period = sm.get("period_ms")
+        if not isinstance(period, (int, float)):
+            raise InputError(f"{self.folder / SUMMARY_FILE} lacks smooth.period_ms.",
+                             "Run the job again with `polishpath plan --config DIR/job.toml -o DIR`.")
+        return ToolPath(NurbsCurve(int(deg), knots, cp, w), dp, smp, spar, feed, float(period), self.surface_path,
+                        provenance=self._provenance("smooth", "smooth"), stats=dict(sm.get("stats") or {}),
+                        dwell_times=dt if dt.size else None)
+
+
+def read_run(folder: str | Path) -> RunData:
+    """Read a run folder written by ``polishpath plan ... -o DIR`` (:func:`write_run`).
+
+    Parameters
+    ----------
+    folder : path
+        The run folder; must hold ``summary.json`` and ``run.npz`` (``job.toml`` optional).
+
+    Returns
+    -------
+    RunData
+
+    Raises
+    ------
+    InputError
+        The folder does not exist, is not a polishpath run, was written by a newer
+        format, or its files are unreadable.
+    """
+    d = Path(folder)
+    if not d.is_dir():
+        raise InputError(f"{d} is not a folder.",
+                         "Give the output folder of a finished run (`polishpath plan SURFACE -o DIR`).")
+    sp = d / SUMMARY_FILE
+    if not sp.is_file():
+        raise InputError(f"{d} is not a polishpath run folder: it has no {SUMMARY_FILE}.",
+                         "Give the folder written by `polishpath plan SURFACE -o DIR`, "
+                         "or run the plan again to write it.")
+    try:
+        summary = json.loads(sp.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(f"{sp} cannot be read as JSON ({e}).",
+                         "The run may have been interrupted; run `polishpath plan` again.") from e
+    if not isinstance(summary, dict):
+        raise InputError(f"{sp} does not hold a JSON object.", "Run `polishpath plan` again to rewrite it.")
+    schema = summary.get(SCHEMA_KEY, 0)
+    if not isinstance(schema, int) or isinstance(schema, bool) or schema < 0:
+        raise InputError(f"{sp}: {SCHEMA_KEY} must be a whole number, got {schema!r}.",
+                         "Run `polishpath plan` again to rewrite it.")
+    if schema > SCHEMA_VERSION:
+        raise InputError(f"{d} was written in run-folder format {schema}; this polishpath {__version__} reads up to "
+                         f"{SCHEMA_VERSION}.", "Upgrade polishpath to read it.")
+    npz = d / ARRAYS_FILE
+    if not npz.is_file():
+        raise InputError(f"{d} has no {ARRAYS_FILE} (the arrays of the run).",
+                         "Run `polishpath plan` again with this version of polishpath to write it.")
+    try:
+        with np.load(npz, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except Exception as e:  # zipfile / ValueError / OSError: all mean a broken file
+        raise InputError(f"{npz} cannot be read ({e}).",
+                         "The run may have been interrupted; run `polishpath plan` again.") from e
+    config: dict[str, Any] = {}
+    if (d / JOB_FILE).is_file():
+        table = read_toml(d / JOB_FILE).get("job", {})
+        config = table if isinstance(table, dict) else {}
+    return RunData(d, summary, arrays, config, schema, _read_simulation(d / SIMULATION_DIR))
+
+
+def _read_simulation(sim: Path) -> dict[str, Any]:
+    """What a ``polishpath simulate`` run left in ``sim`` (defensive: any file may be missing)."""
+    if not sim.is_dir():
+        return {}
+    out: dict[str, Any] = {"folder": sim, "summary": None, "table": None, "images": []}
+    for name in ("summary.json", "results.json"):
+        p = sim / name
+        if p.is_file():
+            try:
+                data = json.loads(p.read_text(encoding="utf-8"))
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+                continue
+            out["summary"] = data
+            break
+    t = sim / "table.txt"
+    if t.is_file():
+        try:
+            out["table"] = t.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            pass
+    imgs = sorted(sim.glob("*.png"))
+    # PSD curves first, then the residual maps, then anything else
+    imgs.sort(key=lambda p: (0 if "psd" in p.stem.lower() else 1 if "resid" in p.stem.lower() else 2, p.name))
+    out["images"] = imgs
+    if out["summary"] is None and out["table"] is None and not imgs:
+        return {}
+    return out
