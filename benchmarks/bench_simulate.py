@@ -7,7 +7,7 @@ sponge at 230 rpm (rotating_tool_tif: 2 mm contact radius, parabolic pressure,
 
     PYTHONPATH=src python benchmarks/bench_simulate.py [--dx 0.005] [--size 20] [--seed 0]
         [--rpm 230] [--radius 2] [--pressure parabolic] [--feed 600] [--fwhm F]
-        [--time-model segments|points|machine] [--planner auto|plan|builtin] [--out DIR]
+        [--time-model segments|points|machine] [--out DIR]
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ def main(argv=None):
     ap.add_argument("--dx", type=float, default=0.005, help="pixel pitch, mm")
     ap.add_argument("--spacing", type=float, default=0.5, help="path spacing, mm")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--planner", default="auto")
     ap.add_argument("--rpm", type=float, default=230.0, help="tool spin, 1/min")
     ap.add_argument("--radius", type=float, default=2.0, help="contact radius, mm")
     ap.add_argument("--pressure", default="parabolic")
@@ -40,12 +39,12 @@ def main(argv=None):
         tif = rotating_tool_tif(a.rpm, a.radius, a.pressure, feed_mm_min=a.feed)
         desc = f"rotating tool {a.rpm:g} rpm, contact radius {a.radius:g} mm ({a.pressure}), feed {a.feed:g} mm/min"
     t0 = time.perf_counter()
-    out = compare_patterns(a.size, spacing=a.spacing, seed=a.seed, dx_mm=a.dx, planner=a.planner, out_dir=a.out,
+    out = compare_patterns(a.size, spacing=a.spacing, seed=a.seed, dx_mm=a.dx, out_dir=a.out,
                            tif=tif, time_model=a.time_model)
     total = time.perf_counter() - t0
     n = int(round(a.size / a.dx)) + 1
     print(f"patch {a.size:g} mm x {a.size:g} mm at {1000 * a.dx:g} um = {n} x {n} px, spacing {a.spacing} mm, "
-          f"planner: {out['params']['planner']}, seed {a.seed}, {desc}, time model {a.time_model}")
+          f"planner: polishpath.plan.plan, seed {a.seed}, {desc}, time model {a.time_model}")
     plans = out["params"]["plans"]
     for r in out["rows"]:
         rot = r.get("rotating") or {}

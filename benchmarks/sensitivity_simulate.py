@@ -4,7 +4,7 @@ Prints a Markdown table (suppression ratio of the band-average PSD, 1-100 1/mm,
 per pattern, and the resulting ranking) for docs/simulation.md. Plans are
 computed once per (spacing, seed) and reused.
 
-    PYTHONPATH=src python benchmarks/sensitivity_simulate.py [--size 10] [--dx 0.005] [--planner auto] [--only N,M]
+    PYTHONPATH=src python benchmarks/sensitivity_simulate.py [--size 10] [--dx 0.005] [--only N,M]
 """
 
 from __future__ import annotations
@@ -38,12 +38,8 @@ def configs():
 
 
 def _memoize_planner():
-    try:
-        import polishpath.plan as P
-    except ImportError:
-        return
-    if not hasattr(P, "plan"):
-        return
+    import polishpath.plan as P
+
     orig = P.plan
     cache = {}
 
@@ -61,7 +57,6 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--size", type=float, default=10.0)
     ap.add_argument("--dx", type=float, default=0.005)
-    ap.add_argument("--planner", default="auto")
     ap.add_argument("--only", default=None, help="comma-separated case numbers (0-based)")
     a = ap.parse_args(argv)
     _memoize_planner()
@@ -70,22 +65,20 @@ def main(argv=None):
     print(f"patch {a.size:g} mm at {1000 * a.dx:g} um; suppression ratio 1 - after/before of the band-average "
           f"profile PSD in 1-100 1/mm", flush=True)
     lines = [head, "|" + "---|" * (len(PATTERNS) + 2)]
-    planner_used = None
     t0 = time.perf_counter()
     for i, (name, c) in enumerate(configs()):
         if only is not None and i not in only:
             continue
         tif = gaussian_tif(fwhm_mm=c["gauss"]) if c["gauss"] else rotating_tool_tif(**c["tif"])
         kw = {} if c["noise"] == "default" else {"noise": c["noise"]}
-        out = compare_patterns(a.size, PATTERNS, c["spacing"], c["seed"], dx_mm=a.dx, tif=tif, planner=a.planner,
+        out = compare_patterns(a.size, PATTERNS, c["spacing"], c["seed"], dx_mm=a.dx, tif=tif,
                                time_model=c["time_model"], **kw)
-        planner_used = out["params"]["planner"]
         sr = {r["name"]: r["suppression_ratio"] for r in out["rows"]}
         rank = " > ".join(sorted(sr, key=lambda k: -sr[k]))
         lines.append(f"| {name} | " + " | ".join(f"{100 * sr[p]:.1f} %" for p in PATTERNS) + f" | {rank} |")
         print(lines[-1], flush=True)
     print()
-    print(f"planner: {planner_used}; {time.perf_counter() - t0:.0f} s")
+    print(f"planner: polishpath.plan.plan; {time.perf_counter() - t0:.0f} s")
     print("\n".join(lines))
 
 

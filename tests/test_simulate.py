@@ -17,12 +17,8 @@ from polishpath.simulate import (
     measured_tif,
     path_time_samples,
     profile_psd,
-    random_walk_path,
-    raster_path,
     rasterize_time,
-    rectangular_path,
     simulate_removal,
-    spiral_path,
     synthetic_workpiece,
     tilted_tool_tif,
 )
@@ -31,8 +27,18 @@ from polishpath.simulate.workpiece import Workpiece
 DX = 0.01  # mm: small grids keep the tests fast
 
 
+def plan_square(pattern: str, size_mm: float, spacing_mm: float, seed: int = 0):
+    """A real pattern of the planner on a centred square: dwell points (N, 2) mm and piece offsets."""
+    from polishpath.plan import plan
+    from polishpath.types import Region
+
+    h = size_mm / 2
+    p = plan(Region(np.array([[-h, -h], [h, -h], [h, h], [-h, h]])), spacing_mm, pattern, seed=seed)
+    return np.asarray(p.uv), np.asarray(p.pieces)
+
+
 def _raster(size=4.0, spacing=0.5):
-    return raster_path(size, spacing)
+    return plan_square("raster", size, spacing)[0]
 
 
 def test_path_time_samples_conserve_time_and_follow_segments():
@@ -113,7 +119,7 @@ def test_process_noise_has_requested_rms():
 
 def test_raster_residual_shows_peak_at_one_over_spacing():
     spacing = 0.5
-    xy = raster_path(6.0, spacing)  # lines along x, stepping in y
+    xy = plan_square("raster", 6.0, spacing)[0]  # lines along x, stepping in y
     tif = gaussian_tif(5.0, fwhm_mm=0.5)  # narrow enough to leave ripple
     wp = flat_workpiece((-3.5, -3.5, 3.5, 3.5), DX)
     r = simulate_removal(xy, np.full(len(xy), 0.2), wp, tif)
@@ -127,7 +133,7 @@ def test_raster_residual_shows_peak_at_one_over_spacing():
 
 def test_direction_dependent_tif_marks_every_other_raster_line():
     spacing = 0.5
-    xy = raster_path(6.0, spacing)
+    xy = plan_square("raster", 6.0, spacing)[0]
     base = gaussian_tif(5.0, fwhm_mm=0.9)  # too wide for ripple at 1/spacing
     wp = flat_workpiece((-3.5, -3.5, 3.5, 3.5), DX)
     n0 = int(1.5 / DX)
@@ -156,7 +162,7 @@ def test_measured_tif_matches_gaussian():
     arr = g.kernel(0.02)
     m = measured_tif(arr, 0.02)
     assert m.volume_rate == pytest.approx(g.volume_rate, rel=1e-3)
-    xy = rectangular_path(2.0, 0.5)
+    xy = plan_square("rectangular", 2.0, 0.5)[0]
     wp = flat_workpiece((-2, -2, 2, 2), DX)
     a = simulate_removal(xy, np.ones(len(xy)), wp, g)
     b = simulate_removal(xy, np.ones(len(xy)), wp, m)
@@ -190,10 +196,12 @@ def test_compare_paths_writes_outputs_and_records_parameters(tmp_path):
     size, spacing = 5.0, 0.5
     wp = synthetic_workpiece((-2.5, -2.5, 2.5, 2.5), 0.02, rms_nm=1.0, seed=1)
     t = 0.3
-    sp, pieces = spiral_path(size, spacing)
-    paths = {"raster": (raster_path(size, spacing), np.full(121, t)),
+    sp, pieces = plan_square("spiral", size, spacing)
+    ra = plan_square("raster", size, spacing)[0]
+    pr = plan_square("pseudorandom", size, spacing, seed=1)[0]
+    paths = {"raster": (ra, np.full(len(ra), t)),
              "spiral": (sp, np.full(len(sp), t), pieces),
-             "pseudorandom": (random_walk_path(size, spacing, seed=1), np.full(121, t))}
+             "pseudorandom": (pr, np.full(len(pr), t))}
     out = compare_paths(paths, wp, gaussian_tif(5.0, fwhm_mm=0.6), seed=5, spacing_mm=spacing,
                         eval_inset_mm=1.0, out_dir=tmp_path)
     assert [r["name"] for r in out["rows"]] == ["raster", "spiral", "pseudorandom"]
@@ -206,11 +214,12 @@ def test_compare_paths_writes_outputs_and_records_parameters(tmp_path):
     assert "raster" in (tmp_path / "table.txt").read_text()
 
 
-def test_builtin_paths_visit_every_grid_point_once():
-    for p in (raster_path(3.0, 0.5), rectangular_path(3.0, 0.5), random_walk_path(3.0, 0.5, seed=2)):
+def test_planned_grid_patterns_visit_every_grid_point_once():
+    for pat in ("raster", "rectangular", "pseudorandom"):
+        p = plan_square(pat, 3.0, 0.5, seed=2)[0]
         ij = np.rint((p + 1.5) / 0.5).astype(int)
-        assert len({tuple(v) for v in ij}) == len(p) == 49
-    r = rectangular_path(3.0, 0.5)
+        assert len({tuple(v) for v in ij}) == len(p) == 49, pat
+    r = plan_square("rectangular", 3.0, 0.5)[0]
     assert np.allclose(np.abs(np.diff(r, axis=0)).sum(axis=1), 0.5)
 
 
@@ -245,29 +254,26 @@ def test_points_time_model_puts_time_at_dwell_points():
         path_time_samples(xy, np.ones(3), 0.01, time_model="teleport")
 
 
-def test_compare_patterns_builtin_records_everything(tmp_path):
+def test_compare_patterns_records_everything(tmp_path):
     from polishpath.simulate import compare_patterns
 
-    out = compare_patterns(8.0, ("raster", "rectangular"), 0.5, seed=3, dx_mm=0.02, planner="builtin",
-                           out_dir=tmp_path, tif=gaussian_tif())
+    out = compare_patterns(8.0, ("raster", "rectangular"), 0.5, seed=3, dx_mm=0.02, out_dir=tmp_path,
+                           tif=gaussian_tif())
     p = out["params"]
-    assert p["planner"] == "builtin" and p["seed"] == 3 and p["spacing_mm"] == 0.5
-    assert p["workpiece"]["seed"] == 3 and "built-in reference paths" in out["table"]
+    assert p["seed"] == 3 and p["spacing_mm"] == 0.5 and p["workpiece"]["seed"] == 3
+    assert p["plans"]["raster"]["provenance"]["method"] == "raster"
+    assert p["plans"]["rectangular"]["n_points"] == 17 * 17
     # equal dwell per point removes the requested depth
     for r in out["rows"]:
         assert r["mean_depth_nm"] == pytest.approx(200.0, rel=0.05)
     assert (tmp_path / "results.json").exists() and (tmp_path / "residual_rectangular.png").exists()
 
 
-def test_compare_patterns_with_the_planner():
-    plan_mod = pytest.importorskip("polishpath.plan")
-    if not hasattr(plan_mod, "plan"):
-        pytest.skip("polishpath.plan.plan is not available yet")
+def test_compare_patterns_with_the_pseudorandom_planner():
     from polishpath.simulate import compare_patterns
 
-    out = compare_patterns(8.0, ("pseudorandom", "raster"), 0.5, seed=1, dx_mm=0.02, planner="plan",
-                           tif=gaussian_tif())
-    assert out["params"]["planner"] == "polishpath.plan.plan"
+    out = compare_patterns(8.0, ("pseudorandom", "raster"), 0.5, seed=1, dx_mm=0.02, tif=gaussian_tif())
+    assert out["params"]["plans"]["pseudorandom"]["provenance"]["seed"] == 1
     assert {r["name"] for r in out["rows"]} == {"pseudorandom", "raster"}
     assert all(np.isfinite(r["suppression_ratio"]) for r in out["rows"])
 
@@ -275,13 +281,13 @@ def test_compare_patterns_with_the_planner():
 def test_compare_patterns_feed_dwell_keeps_total_time():
     from polishpath.simulate import compare_patterns
 
-    eq = compare_patterns(8.0, ("spiral",), 0.5, seed=0, dx_mm=0.04, planner="builtin", noise=None, tif=gaussian_tif())
-    fd = compare_patterns(8.0, ("spiral",), 0.5, seed=0, dx_mm=0.04, planner="builtin", noise=None, dwell="feed",
+    eq = compare_patterns(8.0, ("spiral",), 0.5, seed=0, dx_mm=0.04, noise=None, tif=gaussian_tif())
+    fd = compare_patterns(8.0, ("spiral",), 0.5, seed=0, dx_mm=0.04, noise=None, dwell="feed",
                           tif=gaussian_tif())
     assert fd["rows"][0]["total_time_s"] == pytest.approx(eq["rows"][0]["total_time_s"], rel=1e-9)
     assert fd["params"]["dwell"] == "feed"
     with pytest.raises(ParameterError, match="dwell"):
-        compare_patterns(8.0, ("spiral",), 0.5, dx_mm=0.04, planner="builtin", dwell="sometimes")
+        compare_patterns(8.0, ("spiral",), 0.5, dx_mm=0.04, dwell="sometimes")
 
 
 def test_workpiece_from_measurement(tmp_path):

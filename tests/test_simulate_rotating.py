@@ -13,12 +13,21 @@ from polishpath.simulate import (
     path_clock,
     path_motion_samples,
     process_noise_factor,
-    raster_path,
     rotating_tool_tif,
     simulate_removal,
 )
 
 DX = 0.01
+
+
+def plan_square(pattern: str, size_mm: float, spacing_mm: float, seed: int = 0):
+    """A real pattern of the planner on a centred square: dwell points (N, 2) mm and piece offsets."""
+    from polishpath.plan import plan
+    from polishpath.types import Region
+
+    h = size_mm / 2
+    p = plan(Region(np.array([[-h, -h], [h, -h], [h, h], [-h, h]])), spacing_mm, pattern, seed=seed)
+    return np.asarray(p.uv), np.asarray(p.pieces)
 
 
 def test_zero_feed_tif_is_axisymmetric_and_feed_leans_it_sideways():
@@ -52,7 +61,7 @@ def test_basis_reproduces_exact_kernels_and_volume():
 
 def test_rotating_removal_conserves_volume_and_coarse_grid_matches_fine():
     tif = rotating_tool_tif(230, 0.6, "hertz", peak_rate_nm_s=20.0)
-    xy = raster_path(2.0, 0.25)
+    xy = plan_square("raster", 2.0, 0.25)[0]
     wp = flat_workpiece((-1.8, -1.8, 1.8, 1.8), 0.01)
     dwell = np.full(len(xy), 0.025)  # 10 mm/s
     fine = simulate_removal(xy, dwell, wp, tif, removal_dx_mm=0.01)
@@ -66,7 +75,7 @@ def test_rotating_removal_conserves_volume_and_coarse_grid_matches_fine():
 
 def test_bidirectional_raster_prints_half_spacing_stripes_with_a_rotating_tool():
     spacing = 0.25
-    xy = raster_path(6.0, spacing)  # lines along x, alternately +x and -x
+    xy = plan_square("raster", 6.0, spacing)[0]  # lines along x, alternately +x and -x
     wp = flat_workpiece((-3.2, -3.2, 3.2, 3.2), DX)
     tif = rotating_tool_tif(230, 0.5, "uniform", peak_rate_nm_s=20.0)
     n0 = int(1.2 / DX)
@@ -87,8 +96,7 @@ def test_bidirectional_raster_prints_half_spacing_stripes_with_a_rotating_tool()
 
 
 def test_machine_time_model_runs_the_smoothed_path():
-    pytest.importorskip("polishpath.smooth")
-    xy = raster_path(2.0, 0.5)
+    xy = plan_square("raster", 2.0, 0.5)[0]
     dwell = np.full(len(xy), 0.05)
     s, t, head, arc, length, info = path_motion_samples(xy, dwell, 0.005, time_model="machine")
     assert info["period_ms"] > 0 and info["n_interp_samples"] > len(xy)
@@ -134,7 +142,7 @@ def test_rotating_tif_bad_inputs():
 def test_compare_patterns_default_is_the_rotating_sponge_and_removes_the_depth():
     from polishpath.simulate import compare_patterns
 
-    out = compare_patterns(12.0, ("raster", "spiral"), 0.5, seed=0, dx_mm=0.04, planner="builtin", noise=None)
+    out = compare_patterns(12.0, ("raster", "spiral"), 0.5, seed=0, dx_mm=0.04, noise=None)
     p = out["params"]
     assert p["tif"]["kind"] == "rotating" and p["tif"]["rpm"] == 230.0
     assert p["dwell_s_per_point"] == pytest.approx(0.5 / 10.0)  # spacing / (600 mm/min)

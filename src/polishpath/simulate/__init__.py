@@ -9,21 +9,18 @@ from .compare import (
     PAPER_TABLE4,
     compare_paths,
     compare_patterns,
+    compare_planned,
     default_tif,
     evaluate_result,
     format_table,
     plot_psds,
     profile_psd,
 )
-from .paths import random_walk_path, raster_path, rectangular_path, spiral_path
+from .motion import TIME_MODELS, dwell_from_feed, path_clock, path_motion_samples, path_time_samples
 from .removal import (
     ProcessNoise,
-    path_clock,
-    path_motion_samples,
     SimulationResult,
     Smoothing,
-    dwell_from_feed,
-    path_time_samples,
     process_noise_factor,
     rasterize_time,
     simulate_removal,
@@ -31,14 +28,16 @@ from .removal import (
 )
 from .rotating import RotatingBasis, RotatingToolTIF, rotating_tool_tif
 from .tif import TIF, DirectionalTIF, gaussian_tif, measured_tif, tilted_tool_tif
+from .jobpath import PLANES, TIMINGS, TimedPath, choose_plane, simulate_job, simulate_path, timed_path
 from .workpiece import Workpiece, flat_workpiece, synthetic_workpiece, workpiece_from_measurement
 
 __all__ = [
     "DEFAULT_NOISE", "DEFAULT_SMOOTHING", "PAPER_TABLE4", "DirectionalTIF", "ProcessNoise", "SimulationResult",
-    "Smoothing", "TIF", "Workpiece", "compare_paths", "compare_patterns", "default_tif", "dwell_from_feed", "evaluate_result",
+    "Smoothing", "TIF", "Workpiece", "compare_paths", "compare_patterns", "compare_planned", "default_tif", "dwell_from_feed", "evaluate_result",
     "flat_workpiece", "format_table", "gaussian_tif", "measured_tif", "path_time_samples", "plot_psds",
-    "process_noise_factor", "profile_psd", "random_walk_path", "raster_path", "rasterize_time",
-    "rectangular_path", "simulate_removal", "smooth_surface", "spiral_path", "synthetic_workpiece",
+    "process_noise_factor", "profile_psd", "rasterize_time",
+    "simulate_removal", "smooth_surface", "synthetic_workpiece",
     "tilted_tool_tif", "workpiece_from_measurement", "RotatingBasis", "RotatingToolTIF", "rotating_tool_tif",
-    "path_clock", "path_motion_samples",
+    "path_clock", "path_motion_samples", "TIME_MODELS", "PLANES", "TIMINGS", "TimedPath", "choose_plane",
+    "simulate_job", "simulate_path", "timed_path",
 ]

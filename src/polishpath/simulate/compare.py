@@ -11,8 +11,10 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peaks, psd_1d, suppression_ratio
-from ..types import Region
-from .removal import ProcessNoise, SimulationResult, Smoothing, dwell_from_feed, simulate_removal
+from ..pathops import split_by_pieces
+from ..types import PlanarPath, Region
+from .motion import dwell_from_feed
+from .removal import ProcessNoise, SimulationResult, Smoothing, simulate_removal
 from .rotating import RotatingToolTIF, rotating_tool_tif
 from .tif import TIF, DirectionalTIF
 from .workpiece import DEFAULT_DX_MM, Workpiece, synthetic_workpiece
@@ -314,161 +316,176 @@ def _square_region(size_mm: float) -> Region:
     return Region(np.array([[-h, -h], [h, -h], [h, h], [-h, h]]))
 
 
-def builtin_path(pattern: str, size_mm: float, spacing_mm: float, seed: int = 0):
-    """Fallback paths of :mod:`polishpath.simulate.paths` on a centred square: ``(xy, pieces)``."""
-    from . import paths as P
+def _dwell_s_per_point(tif, spacing_mm: float, removal_depth_nm: float):
+    """Equal dwell time per point (s) that removes ``removal_depth_nm`` on a grid of ``spacing_mm``, and the tool.
 
-    if pattern == "raster":
-        return P.raster_path(size_mm, spacing_mm), None
-    if pattern == "rectangular":
-        return P.rectangular_path(size_mm, spacing_mm), None
-    if pattern == "spiral":
-        return P.spiral_path(size_mm, spacing_mm)
-    if pattern in ("pseudorandom", "randomwalk"):
-        return P.random_walk_path(size_mm, spacing_mm, seed), None
-    raise ParameterError(f"no built-in path {pattern!r}.", "Use raster, rectangular, spiral or pseudorandom.")
+    A RotatingToolTIF keeps its nominal feed (``t = spacing / feed``) and has its
+    Preston coefficient rescaled to the depth; any other TIF keeps its rate and
+    gets ``t = depth * spacing^2 / volume rate``. Returns ``(t, tif, scale)``.
+    """
+    if isinstance(tif, RotatingToolTIF):
+        if not tif.feed_mm_min > 0:
+            raise ParameterError("a rotating tool for the comparison needs a nominal feed > 0 mm/min.")
+        t_point = spacing_mm / (tif.feed_mm_min / 60.0)
+        scale = removal_depth_nm * spacing_mm**2 / (tif.volume_rate * t_point)
+        return t_point, tif.scaled(scale), scale
+    vol = tif.tifs[0].volume_rate if isinstance(tif, DirectionalTIF) else tif.volume_rate
+    return removal_depth_nm * spacing_mm**2 / vol, tif, None
 
 
-def compare_patterns(region_or_size: Region | float = 20.0,
-                     patterns=("pseudorandom", "raster", "spiral", "rectangular"), spacing: float = 0.5,
-                     seed: int = 0, *, dx_mm: float = DEFAULT_DX_MM, tif: TIF | DirectionalTIF | None = None,
-                     noise: ProcessNoise | None = DEFAULT_NOISE, smoothing: Smoothing | None = DEFAULT_SMOOTHING,
-                     workpiece: Workpiece | None = None, initial_rms_nm: float = 2.0, initial_exponent: float = 2.5,
-                     removal_depth_nm: float = 200.0, band=PAPER_BAND_PER_MM, planner: str = "auto",
-                     time_model: str = "segments", dwell: str = "equal", patch_mm: float | None = None,
-                     out_dir=None, machine: dict | None = None, removal_dx_mm: float | None = None) -> dict[str, Any]:
-    """Plan each pattern on a patch, simulate the same polishing, and tabulate (Table 4 analogue).
+def compare_planned(planned: dict[str, PlanarPath], *, seed: int = 0, dx_mm: float = DEFAULT_DX_MM,
+                    tif: TIF | DirectionalTIF | None = None, noise: ProcessNoise | None = DEFAULT_NOISE,
+                    smoothing: Smoothing | None = DEFAULT_SMOOTHING, workpiece: Workpiece | None = None,
+                    initial_rms_nm: float = 2.0, initial_exponent: float = 2.5, removal_depth_nm: float = 200.0,
+                    band=PAPER_BAND_PER_MM, time_model: str = "segments", dwell: str = "equal",
+                    patch_bounds=None, out_dir=None, machine: dict | None = None,
+                    removal_dx_mm: float | None = None, plan_info: dict | None = None) -> dict[str, Any]:
+    """Simulate the same polishing along already planned paths and tabulate (Table 4 analogue).
+
+    The paths are simulated in their own plane (the plane they were planned
+    in: for a part, its flattening). Every path gets the same tool, initial
+    surface, noise seed and mean depth.
 
     Parameters
     ----------
-    region_or_size : Region or float
-        Planar region (mm) or the side of a centred square patch, mm.
-    patterns : sequence of str
-        Planner pattern names.
-    spacing : float
-        Dwell-point spacing, mm.
+    planned : dict of name -> PlanarPath
+        The paths (``uv`` (N, 2) mm, ``pieces``, ``spacing`` the planar grid spacing, mm).
     seed : int
-        Seed of the planner, the initial surface and the process noise.
+        Seed of the initial surface and the process noise.
     dx_mm : float
         Simulation pixel pitch, mm (5 um resolves 100 1/mm).
     tif : TIF, DirectionalTIF or RotatingToolTIF, optional
         Default :func:`default_tif`: the paper's sponge spinning at 230 rpm
-        (:func:`rotating_tool_tif`, parabolic pressure, 2 mm contact radius, feed
-        600 mm/min). For a RotatingToolTIF the dwell time per point is
-        ``spacing / feed`` (its nominal feed) and its Preston coefficient is
-        rescaled so that this removes ``removal_depth_nm``; for other TIFs the
-        dwell time is ``depth * spacing^2 / TIF volume rate``.
+        (parabolic pressure, 2 mm contact radius, feed 600 mm/min). The dwell
+        time per point follows from ``removal_depth_nm`` and each path's planar
+        spacing (:func:`_dwell_s_per_point`).
     noise, smoothing :
         Process noise and smoothing (defaults in docs/simulation.md).
     workpiece : Workpiece, optional
-        Initial surface; default a synthetic power-law surface over the region's bounds.
+        Initial surface; default a synthetic power-law surface over ``patch_bounds``.
     initial_rms_nm, initial_exponent : float
         Synthetic initial surface: RMS (nm) and 2D PSD exponent, band 0.2-100 1/mm.
     removal_depth_nm : float
-        Mean depth to remove; sets the (equal) dwell time of every point:
-        ``t = depth * spacing^2 / TIF volume rate``.
+        Mean depth to remove, nm.
     band : (float, float)
         1/mm.
     time_model : {"segments", "points", "machine"}
         Continuous motion, stop-and-dwell, or the machine's constant-period
         samples of the NURBS through the dwell points (:mod:`polishpath.smooth`).
-    machine : dict, optional
-        Options of the ``"machine"`` time model (period_ms, chord_tol_mm, max_feed_factor).
-    removal_dx_mm : float, optional
-        Convolution pitch for a RotatingToolTIF, mm (default automatic).
     dwell : {"equal", "feed"}
         ``"equal"``: every dwell point gets the same time (the paper's dwell
         points); ``"feed"``: constant feed along each path (time proportional to
         path length, so diagonal steps get more), scaled to the same total
-        time per area as ``"equal"``.
-    patch_mm : float, optional
-        Simulate only a centred square of this side (mm) around the region's
-        centroid, while planning over the whole region (large parts: a 20 mm
-        patch at 5 um is 16 M pixels). Path outside the patch is dropped
-        (counted in the per-path ``time_off_grid_s``).
-    planner : {"auto", "plan", "builtin"}
-        ``"plan"``: :func:`polishpath.plan.plan`; ``"builtin"``: the small
-        reference paths of :mod:`polishpath.simulate.paths` (square patches);
-        ``"auto"``: the planner if importable, else built-in.
+        time per point as ``"equal"``.
+    patch_bounds : (xmin, ymin, xmax, ymax), optional
+        Simulated patch, mm (default: the bounds of all paths). Path outside it
+        is dropped (counted in the per-path ``time_off_grid_s``).
     out_dir : str or Path, optional
         Where to write the table, JSON, PSD plot and residual maps.
+    machine, removal_dx_mm :
+        As :func:`compare_paths`.
+    plan_info : dict, optional
+        Per-path planning figures to record in ``params["plans"]``.
 
     Returns
     -------
     dict
-        As :func:`compare_paths`, plus ``params["planner"]`` and per-row ``pattern``.
+        As :func:`compare_paths`, plus per-row ``pattern`` and ``planar_spacing_mm``.
     """
-    tif = tif or default_tif()
-    if isinstance(region_or_size, Region):
-        region = region_or_size
-        size = None
-    else:
-        size = float(region_or_size)
-        region = _square_region(size)
-    xmin, ymin, xmax, ymax = region.bounds
-    if patch_mm is not None:
-        cx, cy = region.centroid
-        xmin, ymin, xmax, ymax = cx - patch_mm / 2, cy - patch_mm / 2, cx + patch_mm / 2, cy + patch_mm / 2
+    if not planned:
+        raise ParameterError("no planned path to compare.", "Give at least one pattern.")
+    base_tif = tif or default_tif()
+    if patch_bounds is None:
+        allp = np.concatenate([np.asarray(p.uv) for p in planned.values()])
+        patch_bounds = (*allp.min(axis=0), *allp.max(axis=0))
+    xmin, ymin, xmax, ymax = map(float, patch_bounds)
     if workpiece is None:
         workpiece = synthetic_workpiece((xmin, ymin, xmax, ymax), dx_mm, rms_nm=initial_rms_nm,
                                         exponent=initial_exponent, band_per_mm=(0.2, 100.0), seed=seed)
-    tif_scale = None
-    if isinstance(tif, RotatingToolTIF):
-        if not tif.feed_mm_min > 0:
-            raise ParameterError("a rotating tool for compare_patterns needs a nominal feed > 0 mm/min.")
-        t_point = spacing / (tif.feed_mm_min / 60.0)
-        tif_scale = removal_depth_nm * spacing**2 / (tif.volume_rate * t_point)
-        tif = tif.scaled(tif_scale)
-    else:
-        vol = tif.tifs[0].volume_rate if isinstance(tif, DirectionalTIF) else tif.volume_rate
-        t_point = removal_depth_nm * spacing**2 / vol
-    plan_fn = None
-    used = planner
-    if planner in ("auto", "plan"):
-        try:
-            from ..plan import plan as plan_fn  # lazy: written in parallel by another stage
-        except ImportError:
-            if planner == "plan":
-                raise
-            plan_fn = None
-        used = "polishpath.plan.plan" if plan_fn is not None else "builtin"
-    if plan_fn is None and size is None:
-        raise ParameterError("the built-in reference paths need a square size, not a Region.",
-                             "Install the planner (polishpath.plan) or pass a size in mm.")
-    paths = {}
-    plan_info = {}
-    for pat in patterns:
-        tp = time.perf_counter()
-        if plan_fn is not None:
-            pp = plan_fn(region, spacing, pat, seed=seed)
-            xy, pieces = np.asarray(pp.uv), np.asarray(pp.pieces)
-            plan_info[pat] = {"n_points": int(len(xy)), "n_unreached": int(len(pp.unreached)),
-                              "provenance": pp.provenance.to_dict(), "seconds": time.perf_counter() - tp}
-        else:
-            xy, pieces = builtin_path(pat, size, spacing, seed)
-            plan_info[pat] = {"n_points": int(len(xy)), "builtin": True, "seconds": time.perf_counter() - tp}
+    spacings = {name: float(p.spacing) for name, p in planned.items()}
+    # one tool for every path: its rate is set by the first path's spacing (equal on a plane; on a part the
+    # planar spacings differ a little, and each path's dwell time keeps its depth)
+    h0 = next(iter(spacings.values()))
+    t0_point, tif_used, tif_scale = _dwell_s_per_point(base_tif, h0, removal_depth_nm)
+    paths, t_points = {}, {}
+    for name, pp in planned.items():
+        xy, pieces = np.asarray(pp.uv), np.asarray(pp.pieces)
+        t_point = t0_point * (spacings[name] / h0) ** 2
         if dwell == "equal":
             times = np.full(len(xy), t_point)
         elif dwell == "feed":
-            pcs = np.asarray([0, len(xy)] if pieces is None else pieces)
-            times = np.concatenate([dwell_from_feed(xy[a:b], 60.0) if b - a > 1 else np.ones(b - a)
-                                    for a, b in zip(pcs[:-1], pcs[1:])])
+            times = np.concatenate([dwell_from_feed(part, 60.0) if len(part) > 1 else np.ones(len(part))
+                                    for part in split_by_pieces(xy, pieces)])
             times *= t_point * len(xy) / times.sum()
         else:
             raise ParameterError(f"unknown dwell mode {dwell!r}.", "Use 'equal' or 'feed'.")
-        paths[pat] = (xy, times, pieces)
-    out = compare_paths(paths, workpiece, tif, noise=noise, smoothing=smoothing, seed=seed, band=band,
-                        spacing_mm=spacing, out_dir=out_dir, time_model=time_model, machine=machine,
+        paths[name] = (xy, times, pieces)
+        t_points[name] = t_point
+    out = compare_paths(paths, workpiece, tif_used, noise=noise, smoothing=smoothing, seed=seed, band=band,
+                        spacing_mm=h0, out_dir=out_dir, time_model=time_model, machine=machine,
                         removal_dx_mm=removal_dx_mm)
     for r in out["rows"]:
         r["pattern"] = r["name"]
-    out["params"].update({"dwell": dwell, "planner": used, "patterns": list(patterns), "spacing_mm": spacing,
-                          "dwell_s_per_point": t_point, "removal_depth_nm": removal_depth_nm, "plans": plan_info,
-                          "tif_rate_scale": tif_scale,
+        r["planar_spacing_mm"] = spacings[r["name"]]
+        r["dwell_s_per_point"] = t_points[r["name"]]
+    out["params"].update({"dwell": dwell, "patterns": list(planned), "spacing_mm": h0,
+                          "dwell_s_per_point": t0_point, "removal_depth_nm": removal_depth_nm,
+                          "plans": plan_info or {}, "tif_rate_scale": tif_scale,
                           "region_bounds_mm": [xmin, ymin, xmax, ymax]})
-    if used == "builtin":
-        out["table"] += ("note: built-in reference paths (polishpath.plan.plan not available); 'pseudorandom' is a "
-                         "simple random walk with jumps, not the paper's planner.\n")
     if out_dir is not None:
         write_outputs(out, out_dir)  # again, now with the planning parameters
     return out
+
+
+def patch_bounds_at_centre(region: Region, patch_mm: float | None):
+    """Bounds of a centred square of side ``patch_mm`` at the region's centroid (None: the region's bounds)."""
+    if patch_mm is None:
+        return tuple(map(float, region.bounds))
+    if not patch_mm > 0:
+        raise ParameterError(f"the patch side must be > 0 mm, got {patch_mm}.")
+    cx, cy = region.centroid
+    return (cx - patch_mm / 2, cy - patch_mm / 2, cx + patch_mm / 2, cy + patch_mm / 2)
+
+
+def compare_patterns(region_or_size: Region | float = 20.0,
+                     patterns=("pseudorandom", "raster", "spiral", "rectangular"), spacing: float = 0.5,
+                     seed: int = 0, *, patch_mm: float | None = None, **kw) -> dict[str, Any]:
+    """Plan each pattern in a planar region, then :func:`compare_planned` (the Table 4 analogue on a plane).
+
+    For a part, plan on it through :func:`polishpath.pipeline.plan_on_surface`
+    (spacing on the part) and call :func:`compare_planned`, as
+    ``polishpath simulate SURFACE`` does.
+
+    Parameters
+    ----------
+    region_or_size : Region or float
+        Planar region (mm) or the side of a centred square, mm.
+    patterns : sequence of str
+        Planner pattern names (:data:`polishpath.plan.PATTERNS`).
+    spacing : float
+        Dwell-point spacing in the plane, mm.
+    seed : int
+        Seed of the planner, the initial surface and the process noise.
+    patch_mm : float, optional
+        Simulate only a centred square of this side (mm) at the region's
+        centroid while planning over the whole region.
+    **kw :
+        Everything else of :func:`compare_planned` (tif, noise, dx_mm, time_model ...).
+
+    Returns
+    -------
+    dict
+        As :func:`compare_planned`; ``params["plans"]`` has each plan's provenance.
+    """
+    from ..plan import plan  # the planning stage, looked up at call time
+
+    region = region_or_size if isinstance(region_or_size, Region) else _square_region(float(region_or_size))
+    planned, info = {}, {}
+    for pat in patterns:
+        tp = time.perf_counter()
+        pp = plan(region, spacing, pat, seed=seed)
+        planned[pat] = pp
+        info[pat] = {"n_points": int(pp.n_points), "n_unreached": int(len(pp.unreached)),
+                     "provenance": pp.provenance.to_dict(), "seconds": time.perf_counter() - tp}
+    return compare_planned(planned, seed=seed, patch_bounds=patch_bounds_at_centre(region, patch_mm),
+                           plan_info=info, **kw)
