@@ -94,6 +94,10 @@ class SpacingTooLargeError(PlanningError, ParameterError):
     """The dwell-point spacing is too large for the region: fewer than two dwell points fit."""
 
 
+class PatchTooSmallError(ParameterError):
+    """A simulated patch is too small for its evaluation window (the tool's reach from its edges)."""
+
+
 class MappingError(PolishPathError):
     """A planar point could not be carried back to the surface."""
 

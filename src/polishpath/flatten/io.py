@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from ..errors import ExportError
+from ..errors import ExportError, MeshFileError
 from ..types import Flattening
 
 
@@ -55,19 +55,28 @@ def load_obj_uv(file) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     faces : (F, 3) int64
         0-based; the ``vt`` indices must equal the ``v`` indices.
     """
-    text = open(file, encoding="utf-8").read() if isinstance(file, (str, os.PathLike)) else file.read()
+    name = os.fspath(file) if isinstance(file, (str, os.PathLike)) else getattr(file, "name", "the OBJ")
+    try:
+        text = open(file, encoding="utf-8").read() if isinstance(file, (str, os.PathLike)) else file.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MeshFileError(f"Cannot read {name!r}: {exc}.", "Give a flat.obj written by polishpath.") from None
     vs, vts, fs = [], [], []
-    for line in text.splitlines():
+    for k, line in enumerate(text.splitlines(), 1):
         parts = line.split()
         if not parts:
             continue
-        if parts[0] == "v":
-            vs.append([float(x) for x in parts[1:4]])
-        elif parts[0] == "vt":
-            vts.append([float(x) for x in parts[1:3]])
-        elif parts[0] == "f":
-            pairs = [p.split("/") for p in parts[1:4]]
-            if any(a != b for a, b, *_ in pairs):
-                raise ValueError("texture indices differ from vertex indices")
-            fs.append([int(a) - 1 for a, *_ in pairs])
+        try:
+            if parts[0] == "v":
+                vs.append([float(x) for x in parts[1:4]])
+            elif parts[0] == "vt":
+                vts.append([float(x) for x in parts[1:3]])
+            elif parts[0] == "f":
+                pairs = [p.split("/") for p in parts[1:4]]
+                if any(len(p) < 2 or p[0] != p[1] for p in pairs):
+                    raise MeshFileError(f"{name}, line {k}: texture indices differ from vertex indices.",
+                                        "Read only OBJ files written by polishpath's save_obj (v and vt one to one).")
+                fs.append([int(p[0]) - 1 for p in pairs])
+        except ValueError:
+            raise MeshFileError(f"{name}, line {k}: {line.strip()!r} is not a valid OBJ line.",
+                                "Give a flat.obj written by polishpath.") from None
     return np.array(vs), np.array(vts), np.array(fs, dtype=np.int64)

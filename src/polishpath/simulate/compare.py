@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, PatchTooSmallError
 from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peaks, psd_1d, suppression_ratio
 from ..pathops import split_by_pieces
 from ..types import PlanarPath, Region
@@ -80,7 +80,7 @@ def _crop(res_map: np.ndarray, origin, dx, bounds) -> np.ndarray:
     j0 = int(np.ceil((ymin - origin[1]) / dx - 1e-9))
     n = int(np.floor((min(xmax - xmin, ymax - ymin)) / dx + 1e-9))
     if i0 < 0 or j0 < 0 or j0 + n > res_map.shape[0] or i0 + n > res_map.shape[1] or n < 16:
-        raise ParameterError(f"evaluation window {bounds} does not fit in the simulated patch.",
+        raise PatchTooSmallError(f"evaluation window {bounds} does not fit in the simulated patch.",
                              "Use a smaller eval_inset_mm or a larger patch.")
     return res_map[j0:j0 + n, i0:i0 + n]
 
