@@ -20,9 +20,10 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
-CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "_version"}
-# pipeline (the wiring) sits above every stage; the paper reproduction above it
-ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report", "pipeline", "paper"]
+CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "provenance", "defaults", "_version"}
+# the wiring (config: the job's options, pipeline: the one place stages meet) sits above every stage;
+# the paper reproduction above it
+ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report", "config", "pipeline", "paper"]
 # the planner and flattening do not need each other's code either way: both take plain data
 INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces")}
 ALLOWED = {st: {u for u in ORDER[:i] if (st, u) not in INDEPENDENT} for i, st in enumerate(ORDER)}

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from polishpath.cli import app
 from polishpath.fileio import atomic_open
-from polishpath.pipeline import JobConfig
+from polishpath.config import JobConfig
 
 runner = CliRunner()
 SMALL = "hemisphere:R=15,triangles=800"

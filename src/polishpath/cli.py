@@ -10,15 +10,18 @@ that could not complete (the message says which), 130 interrupted (Ctrl-C).
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import sys
+import typing
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import typer
 
 from ._version import __version__
+from .defaults import DEFAULT_FEED_MM_MIN
 from .errors import PolishPathError
 
 app = typer.Typer(
@@ -213,36 +216,52 @@ def flatten_cmd(
             typer.echo(f"wrote {output}")
 
 
+def _with_job_options(cmd: Callable) -> Callable:
+    """Give ``cmd`` one command-line option per job option that has a flag.
+
+    The options come from :data:`polishpath.config.CLI_OPTIONS` (the
+    :class:`~polishpath.config.JobConfig` fields, their flags and help), so a
+    new job option needs no edit here. ``cmd`` receives them, unparsed, as one
+    dict ``job_options`` (``None``: not given), for :func:`polishpath.config.parse_job`.
+    """
+    from .config import CLI_OPTIONS, value_type
+
+    hints = typing.get_type_hints(cmd)
+    own = [p.replace(annotation=hints.get(p.name, p.annotation))
+           for p in inspect.signature(cmd).parameters.values() if p.name != "job_options"]
+    names = {p.name for p in own}
+    extra = []
+    for f in CLI_OPTIONS:
+        t = f.metadata["cli_type"] or value_type(f.name)
+        extra.append(inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, annotation=Optional[t],
+                                       default=typer.Option(None, *f.metadata["flags"], help=f.metadata["help"])))
+
+    def command(**kw):
+        job = {f.name: kw.pop(f.name) for f in CLI_OPTIONS}
+        return cmd(**{k: v for k, v in kw.items() if k in names}, job_options=job)
+
+    params = own + extra
+    command.__signature__ = inspect.Signature(params)
+    command.__annotations__ = {p.name: p.annotation for p in params}
+    command.__name__, command.__qualname__, command.__doc__ = cmd.__name__, cmd.__qualname__, cmd.__doc__
+    return command
+
+
 @app.command("plan")
+@_with_job_options
 def plan_cmd(
     surface: Optional[str] = typer.Argument(None, metavar="SURFACE", help="Mesh file, built-in[:key=value,...], analytic spec or .toml spec (or set it in --config)."),
-    spacing: Optional[float] = typer.Option(None, "--spacing", "-s", help="Dwell-point spacing on the part, mm (default 0.5)."),
-    seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (default: drawn and recorded)."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", help="Output folder (default: out)."),
-    method: Optional[str] = typer.Option(None, "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection."),
-    pattern: Optional[str] = typer.Option(None, "--pattern", "-p", help="pseudorandom (default), raster, spiral, rectangular, or a peer: unicursal, maze, fractal, hilbert."),
-    spacing_on: Optional[str] = typer.Option(None, "--spacing-on", help="'surface' (default: no step on the part over sqrt(2) x spacing) or 'plane'."),
-    start: Optional[str] = typer.Option(None, "--start", help="Planar start point 'u,v' in mm (default: nearest the centre)."),
-    margin: Optional[float] = typer.Option(None, "--margin", help="Keep dwell points this far inside the boundary, mm."),
-    feed: Optional[float] = typer.Option(None, "--feed", help="Feed rate, mm/min."),
-    period: Optional[float] = typer.Option(None, "--period", help="Interpolation period, ms."),
-    chord_tol: Optional[float] = typer.Option(None, "--chord-tol", help="Chord error tolerance, mm."),
-    gcode: Optional[str] = typer.Option(None, "--gcode", help="'linear' (G01, default) or 'nurbs' (G06.2)."),
-    tool_radius: Optional[float] = typer.Option(None, "--tool-radius", help="Offset to the tool centre along the normal, mm."),
-    dwell_times: Optional[str] = typer.Option(None, "--dwell-times", help="CSV of per-dwell-point times (s) in path order."),
     config: Optional[Path] = typer.Option(None, "--config", "-c", help="Job TOML holding any of these options (a run writes its own job.toml)."),
-    no_report: bool = typer.Option(False, "--no-report", help="Skip report.html and the PNG figures."),
-    units: Optional[str] = UNITS_OPT,
-    scale: Optional[float] = SCALE_OPT,
-    component: Optional[str] = typer.Option(None, "--component", help="Several pieces: 'refuse' (default) or 'largest'."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object of figures on stdout."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+    job_options: Optional[dict] = None,
 ):
     """Plan a pseudo-random polishing path on a surface and write the machine files.
 
     Writes into the output folder: path.csv (dwell points), toolpath.xyz (dense
     X Y Z), toolpath.nc (G-code), summary.json, job.toml, flat.obj, run.npz and
-    report.html with PNG figures.
+    report.html with PNG figures (docs/run-folder.md).
 
     Examples:
 
@@ -252,25 +271,13 @@ def plan_cmd(
 
       polishpath plan --config out/job.toml -o out-again
     """
-    from .pipeline import JobConfig, run
+    from .config import parse_job
+    from .pipeline import run
 
     _quiet(quiet, json_out)
     out_dir = output or Path("out")
     with _guard(out_dir):
-        opts = {
-            "surface": surface, "spacing": spacing, "seed": seed, "method": method, "pattern": pattern,
-            "spacing_on": spacing_on, "margin": margin, "feed_mm_min": feed, "period_ms": period,
-            "chord_tol_mm": chord_tol, "gcode": gcode, "tool_radius": tool_radius, "dwell_times": dwell_times,
-            "units": units, "scale": scale, "component": component,
-        }
-        if start is not None:
-            opts["start"] = _parse_pair(start, "--start")
-        if no_report:
-            opts["report"] = False
-        if config is not None:
-            cfg = JobConfig.from_toml(config, **opts)
-        else:
-            cfg = JobConfig(**{k: v for k, v in opts.items() if v is not None})
+        cfg = parse_job(toml=config, surface=surface, **(job_options or {}))
         job = run(cfg)
         written = job.save(out_dir)
         summary = job.summary()
@@ -315,7 +322,7 @@ def simulate_cmd(
     rpm: float = typer.Option(230.0, "--rpm", help="Tool spin, 1/min (the paper's sponge: 230)."),
     radius: float = typer.Option(2.0, "--radius", help="Tool contact radius, mm."),
     pressure: str = typer.Option("parabolic", "--pressure", help="Contact pressure profile: parabolic, hertz, uniform, gaussian."),
-    feed: float = typer.Option(600.0, "--feed", help="Nominal feed, mm/min."),
+    feed: float = typer.Option(DEFAULT_FEED_MM_MIN, "--feed", help="Nominal feed, mm/min."),
     fwhm: Optional[float] = typer.Option(None, "--fwhm", help="Use a plain Gaussian tool influence function of this FWHM (mm) instead of the rotating tool."),
     rate: float = typer.Option(5.0, "--rate", help="Peak removal rate of the Gaussian TIF (with --fwhm), nm/s."),
     depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (sets the dwell time per point)."),
@@ -340,7 +347,7 @@ def simulate_cmd(
     """
     from . import progress
     from .flatten import boundary_region, flatten
-    from .errors import ParameterError
+    from .errors import ParameterError, PatchTooSmallError
     from .simulate import compare_patterns, gaussian_tif, rotating_tool_tif
     from .surfaces import load_surface
 
@@ -361,12 +368,10 @@ def simulate_cmd(
             try:
                 res = compare_patterns(region, pats, spacing, seed, dx_mm=dx, tif=tif,
                                        removal_depth_nm=depth, time_model=time_model, patch_mm=patch, out_dir=sim_dir)
-            except ParameterError as exc:
-                if "evaluation window" in exc.message:
-                    raise ParameterError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
+            except PatchTooSmallError:
+                raise PatchTooSmallError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
                                          "inside the patch, away from its edges by the tool's reach.",
                                          "Use --patch 10 or larger.") from None
-                raise
         if sim_dir != output:
             from .pipeline import rebuild_report
 
@@ -395,7 +400,9 @@ def psd_cmd(
     from .psd import analyze_file, compare_files
 
     with _guard():
-        lo, hi = _parse_pair(band, "--band")
+        from .config import parse_pair
+
+        lo, hi = parse_pair(band, "--band", "'lo,hi' in 1/mm")
         if after is None:
             res = analyze_file(file, (lo, hi), spacing_mm=spacing)
             psds = {file.name: res["psd"]}
@@ -480,16 +487,6 @@ def _print_psd(res: dict, file: Path, after: Optional[Path], lo: float, hi: floa
         sr = res.get("suppression_ratio")
         if sr is not None:
             typer.echo(f"suppression ratio (1 - after/before, band-average PSD): {sr * 100:.2f} %")
-
-
-def _parse_pair(text: str, opt: str) -> tuple[float, float]:
-    from .errors import ParameterError
-
-    try:
-        a, b = (float(x) for x in text.split(","))
-    except ValueError:
-        raise ParameterError(f"{opt} takes two numbers 'u,v' in mm, got {text!r}.") from None
-    return a, b
 
 
 def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> None:

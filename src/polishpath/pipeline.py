@@ -1,12 +1,12 @@
-"""The main job: surface -> flatten -> plan -> map -> smooth -> export.
+"""The main job: surface -> flatten -> plan -> map -> smooth -> export: the one place stages are wired.
 
-:func:`plan_on_surface` is the one place that wires plan and map (with the
-step-reduction loop that honours the spacing on the part); the job, the paper
-reproduction, the simulation's pattern comparison and the benchmarks call it.
-:func:`run` takes a :class:`JobConfig` (every option of ``polishpath plan``,
-also readable from a TOML file) and returns a :class:`Job` holding each
-stage's result; :meth:`Job.save` writes the machine files, ``summary.json``,
-``job.toml`` (to re-run exactly) and the report into a folder.
+:func:`plan_on_surface` wires plan and map (with the step-reduction loop that
+honours the spacing on the part); the job, the paper reproduction, the
+simulation's pattern comparison and the benchmarks call it. :func:`run` takes
+a :class:`~polishpath.config.JobConfig` (every option of ``polishpath plan``,
+see :mod:`polishpath.config`) and returns a :class:`Job` holding each stage's
+result; :meth:`Job.save` writes the machine files, the run-folder files
+(:mod:`polishpath.runfolder`) and the report into a folder.
 """
 
 from __future__ import annotations
@@ -15,9 +15,6 @@ import contextlib
 import dataclasses
 import datetime
 import math
-import os
-import platform
-import random
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,139 +24,14 @@ import numpy as np
 
 from . import progress
 from ._version import __version__
-from .errors import MappingError, ParameterError, PlanningError, SpacingTooLargeError, SpecError
+from .config import JobConfig, parse_job
+from .errors import MappingError, ParameterError, PlanningError, SpacingTooLargeError
 from .fileio import atomic_open, jsonable
 from .pathops import step_mask
+from .provenance import machine_info, resolve_seed
 from .types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
 
 SQRT2 = 2.0**0.5
-
-
-@dataclass
-class JobConfig:
-    """Every option of the main job. Lengths in mm, feed in mm/min, period in ms.
-
-    Attributes
-    ----------
-    surface : str
-        SURFACE as on the command line (mesh path, built-in spec, ``.toml``).
-    units, scale, component : optional
-        Mesh-file options (see :func:`polishpath.surfaces.load_mesh`).
-    method : str
-        Flattening: ``mabf`` (default), ``abf``, ``lscm``, ``projection``.
-    pattern : str
-        Path pattern: ``pseudorandom`` (default), ``raster``, ``spiral``, ``rectangular``,
-        or a peer of the paper's Table 3: ``unicursal``, ``maze``, ``fractal``, ``hilbert``.
-    spacing : float
-        Dwell-point spacing, mm. Honoured on the part by default (see ``spacing_on``).
-    spacing_on : {"surface", "plane"}
-        ``surface``: the planar spacing is reduced so that no step on the part
-        exceeds sqrt(2) x spacing; ``plane``: plain planar grid of that spacing.
-    seed : int or None
-        Seed of the random walk; None draws one (and records it).
-    start : (u, v) or None
-        Planar start point, mm; None: the dwell point nearest the region's centre.
-    margin : float
-        Keep dwell points at least this far inside the boundary (in the plane), mm.
-    feed_mm_min, period_ms, chord_tol_mm : float or None
-        Machine interpolation; None uses the smoothing stage's defaults.
-    gcode : {"linear", "nurbs"}
-        G-code flavour: dense G01 moves or Fanuc-style G06.2 NURBS blocks.
-    tool_radius : float
-        Offset contact points to the tool centre along the normal, mm (0: none).
-    dwell_times : str or None
-        CSV of per-dwell-point times (s), in path order.
-    report : bool
-        Write ``report.html`` and PNG figures.
-    max_points : int
-        Refuse to plan more dwell points than this.
-    max_oversampling : float
-        Refuse when honouring the spacing on the part needs more than this many
-        times the dwell points a uniform grid of that spacing would put on the
-        part (area / spacing^2): the flattening stretches the part too much for
-        one planar grid (an almost closed mesh, say).
-    """
-
-    surface: str = "hemisphere"
-    units: str | None = None
-    scale: float | None = None
-    component: str = "refuse"
-    method: str = "mabf"
-    pattern: str = "pseudorandom"
-    spacing: float = 0.5
-    spacing_on: str = "surface"
-    seed: int | None = None
-    start: tuple[float, float] | None = None
-    margin: float = 0.0
-    feed_mm_min: float | None = None
-    period_ms: float | None = None
-    chord_tol_mm: float | None = None
-    gcode: str = "linear"
-    tool_radius: float = 0.0
-    dwell_times: str | None = None
-    report: bool = True
-    max_points: int = 5_000_000
-    max_oversampling: float = 16.0
-
-    def validate(self) -> None:
-        if not (isinstance(self.spacing, (int, float)) and math.isfinite(self.spacing) and self.spacing > 0):
-            raise ParameterError(f"spacing must be a positive number of mm, got {self.spacing!r}.")
-        if self.spacing_on not in ("surface", "plane"):
-            raise ParameterError(f"spacing_on must be 'surface' or 'plane', got {self.spacing_on!r}.")
-        if self.gcode not in ("linear", "nurbs"):
-            raise ParameterError(f"gcode must be 'linear' or 'nurbs', got {self.gcode!r}.")
-        if self.margin < 0 or not math.isfinite(self.margin):
-            raise ParameterError(f"margin must be >= 0 mm, got {self.margin!r}.")
-        if self.tool_radius < 0 or not math.isfinite(self.tool_radius):
-            raise ParameterError(f"tool radius must be >= 0 mm, got {self.tool_radius!r}.")
-        for name in ("feed_mm_min", "period_ms", "chord_tol_mm"):
-            v = getattr(self, name)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise ParameterError(f"{name} must be a positive number, got {v!r}.")
-        if self.seed is not None and (not isinstance(self.seed, int) or self.seed < 0):
-            raise ParameterError(f"seed must be a non-negative whole number, got {self.seed!r}.")
-
-    def to_dict(self) -> dict[str, Any]:
-        d = dataclasses.asdict(self)
-        if d["start"] is not None:
-            d["start"] = list(d["start"])
-        return d
-
-    def to_toml(self) -> str:
-        """The config as TOML (``None`` options left out): the text of ``job.toml``."""
-        from .runfolder import job_toml
-
-        return job_toml(self.to_dict())
-
-    @classmethod
-    def from_toml(cls, path: str | Path, **overrides: Any) -> JobConfig:
-        """Read a job TOML (``[job]`` table, or top-level keys); ``overrides`` win."""
-        from .surfaces.spec import read_toml
-
-        p = Path(path)
-        data = read_toml(p)
-        table = data.get("job", data)
-        if not isinstance(table, dict):
-            raise SpecError(f"{p.name}: [job] must be a table of options.")
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(table) - names
-        if unknown:
-            raise SpecError(f"{p.name}: unknown job option(s) {', '.join(sorted(unknown))}.",
-                            f"Options: {', '.join(sorted(names))}.")
-        kw = dict(table)
-        # a relative mesh or spec path is relative to the config file
-        surf = kw.get("surface")
-        if isinstance(surf, str):
-            cand = p.parent / surf
-            if not Path(surf).is_absolute() and cand.exists():
-                kw["surface"] = str(cand)
-        dwell = kw.get("dwell_times")
-        if isinstance(dwell, str) and not Path(dwell).is_absolute() and (p.parent / dwell).exists():
-            kw["dwell_times"] = str(p.parent / dwell)
-        if kw.get("start") is not None:
-            kw["start"] = tuple(kw["start"])
-        kw.update({k: v for k, v in overrides.items() if v is not None})
-        return cls(**kw)
 
 
 @dataclass
@@ -190,8 +62,7 @@ class Job:
         s = {
             "polishpath_version": __version__,
             "created": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-            "machine": {"node": platform.node(), "processor": platform.processor() or platform.machine(),
-                        "python": platform.python_version(), "cpus": os.cpu_count()},
+            "machine": machine_info(),
             "config": cfg,
             "seed": self.seed,
             "surface": describe_surface(self.surface),
@@ -262,13 +133,10 @@ class Job:
                                      planar=self.planar, surface_path=self.surface_path, tool_path=self.tool_path,
                                      summary=self.summary(), config=self._job_config_with_seed().to_dict()))
         if report if report is not None else self.config.report:
-            try:
-                from .report import write_report
-            except ImportError:  # report stage not available in this build
-                write_report = None
-            if write_report is not None:
-                with progress.stage("writing report", self.timings, "report"):
-                    written.update(write_report(out))
+            from .report import write_report
+
+            with progress.stage("writing report", self.timings, "report"):
+                written.update(write_report(out))
         return written
 
     def _job_config_with_seed(self) -> JobConfig:
@@ -387,7 +255,7 @@ def plan_on_surface(
                 f"part of it {spacing / planar_spacing:.3g} times (mean |log area ratio| "
                 f"{flat.metrics.get('area_distortion_mean', float('nan')):.3g}).",
                 "Use --spacing-on plane (plain planar grid: larger steps where it stretches), or cut the part into "
-                "less closed patches; raise max_oversampling / max_points in a --config file to go on anyway.",
+                "less closed patches; raise --max-oversampling / --max-points to go on anyway.",
             )
         return plan(region, planar_spacing, pattern, seed=seed, start=start, margin=margin)
 
@@ -516,7 +384,8 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     Parameters
     ----------
     config : JobConfig, optional
-        All options; keyword ``options`` override its fields (or build one).
+        All options; keyword ``options`` (the :class:`~polishpath.config.JobConfig`
+        field names) override its fields, or build one from the defaults.
 
     Returns
     -------
@@ -533,10 +402,8 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     from .smooth import smooth
     from .surfaces import load_surface
 
-    cfg = dataclasses.replace(config, **options) if config is not None else JobConfig(**options)
-    cfg.validate()
-    if cfg.seed is None:
-        cfg = dataclasses.replace(cfg, seed=random.SystemRandom().randrange(2**31))
+    cfg = parse_job(base=config, **options)
+    cfg = dataclasses.replace(cfg, seed=resolve_seed(cfg.seed))
     timings: dict[str, float] = {}
 
     with progress.stage("reading surface", timings, "surface"):

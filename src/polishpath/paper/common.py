@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import datetime
 import math
-import os
-import platform
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -24,16 +21,10 @@ def machine_info() -> dict[str, Any]:
     dict
         ``node``, ``processor``, ``cpus``, ``python``, ``polishpath``, ``date``.
     """
-    proc = platform.processor() or platform.machine()
-    try:  # platform.processor() is often empty or just the architecture on Linux
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                proc = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {"node": platform.node(), "processor": proc, "cpus": os.cpu_count(), "python": platform.python_version(),
-            "polishpath": __version__, "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds")}
+    from ..provenance import machine_info as _machine
+
+    return {**_machine(), "polishpath": __version__,
+            "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds")}
 
 
 def stamp_text(machine: dict, seed: int) -> str:

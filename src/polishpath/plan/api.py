@@ -10,6 +10,7 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import ParameterError
+from ..provenance import resolve_seed
 from ..types import PlanarPath, Provenance, Region
 from . import baselines
 from .dwell import DwellGrid, dwell_grid
@@ -166,11 +167,7 @@ def plan(
         raise ParameterError(
             f"Unknown path pattern {pattern!r}.", f"Choose one of: {', '.join(sorted(PATTERNS))}."
         )
-    if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (2**63))
-    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
-        raise ParameterError(f"Seed must be a non-negative integer, got {seed!r}.")
-    seed = int(seed)
+    seed = resolve_seed(seed)  # checked, or drawn when None: the one place (polishpath.provenance)
     t0 = time.perf_counter()
     grid = dwell_grid(region, spacing, margin=margin, origin=origin, rotation=rotation)
     t1 = time.perf_counter()

@@ -14,7 +14,6 @@ import gzip
 import html
 import json
 import math
-import platform
 import warnings
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..fileio import atomic_open
+from ..provenance import machine_info
 from .rundata import RunData, load_run, step_lengths
 
 # --- small formatting helpers ------------------------------------------------------
@@ -226,8 +226,8 @@ def _header(run: RunData, written_at: str) -> tuple[str, str]:
     elif isinstance(run_machine, str) and run_machine:
         machine, proc = run_machine, ""
     else:  # the run did not record it: the machine that writes the report
-        machine = platform.node() or "?"
-        proc = platform.processor() or platform.machine() or ""
+        here = machine_info()
+        machine, proc = here["node"] or "?", here["processor"] or ""
     meta = [
         ("seed", seed), ("polishpath", version), ("machine", f"{machine} ({proc})" if proc else machine),
         ("report written", written_at), ("run folder", run.folder.resolve()),

@@ -166,7 +166,8 @@ def path_motion_samples(path_xy, dwell_s, step_mm: float, pieces=None, time_mode
 def _machine_samples(p: np.ndarray, t: np.ndarray, step_mm: float, pieces, *, period_ms: float | None = None,
                      chord_tol_mm: float | None = None, max_feed_factor: float = 5.0, schedule_passes: int = 3):
     """Samples of the NURBS-smoothed path at a constant interpolation period (see :func:`path_motion_samples`)."""
-    from ..smooth import DEFAULT_CHORD_TOL_MM, DEFAULT_PERIOD_MS, interpolate_constant_period, interpolate_nurbs
+    from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_PERIOD_MS
+    from ..smooth import interpolate_constant_period, interpolate_nurbs
 
     period_ms = DEFAULT_PERIOD_MS if period_ms is None else float(period_ms)
     chord_tol_mm = DEFAULT_CHORD_TOL_MM if chord_tol_mm is None else float(chord_tol_mm)

@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve, Provenance, SurfacePath, ToolPath
 from .interpolate import (
@@ -72,10 +73,6 @@ __all__ = [
     "DEFAULT_INTEGRATOR",
     "INTEGRATORS",
 ]
-
-DEFAULT_FEED_MM_MIN = 600.0
-DEFAULT_PERIOD_MS = 4.0
-DEFAULT_CHORD_TOL_MM = 0.001
 
 
 def _pieces_of(sp: SurfacePath) -> np.ndarray:

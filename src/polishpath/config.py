@@ -1,0 +1,292 @@
+"""The job's options: one dataclass, one parser, one table of command-line flags.
+
+:class:`JobConfig` holds every option of the main job. Command-line flags, a
+job TOML (``[job]`` table) and keyword arguments of :func:`polishpath.run`
+all become a ``JobConfig`` through one parser, :func:`parse_job`, which checks
+every value against its field (type, range, choices) and names the option in
+its message.
+
+Adding an option
+----------------
+Add one field to :class:`JobConfig` with :func:`option` (its default, its
+command-line flag(s), its help text, and a check: ``positive``, ``nonnegative``
+or ``choices``), then use ``cfg.<name>`` where the job needs it
+(:func:`polishpath.pipeline.run`). Nothing else: ``polishpath plan`` gets the
+flag (its options are built from :data:`CLI_OPTIONS`), ``job.toml`` writes and
+reads the key, ``polishpath.run(name=...)`` takes it, and the summary records
+it. An option without a flag (``flags=()``) is set in a job TOML or from
+Python only.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from .defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
+from .errors import ParameterError, SpecError
+
+
+def option(default: Any, *flags: str, help: str, positive: bool = False, nonnegative: bool = False,
+           choices: tuple[str, ...] | None = None, parse: Callable[[str], Any] | None = None,
+           cli_type: Any = None) -> Any:
+    """A :class:`JobConfig` field with what the command line and the checks need.
+
+    Parameters
+    ----------
+    default
+        Value when not given.
+    *flags
+        Command-line flags (``"--spacing", "-s"``; a ``"--x/--no-x"`` pair for a
+        switch); none: TOML / Python only.
+    help
+        One line for ``--help``, with the unit.
+    positive, nonnegative, choices
+        The check :func:`parse_job` applies to a given value.
+    parse, cli_type
+        For a value the command line gives as text of another shape: the flag's
+        type (``str``) and the function turning the text into the value.
+    """
+    meta = {"flags": flags, "help": help, "positive": positive, "nonnegative": nonnegative,
+            "choices": choices, "parse": parse, "cli_type": cli_type}
+    return field(default=default, metadata=meta)
+
+
+def parse_pair(text: str, opt: str = "--start", what: str = "'u,v' in mm") -> tuple[float, float]:
+    """Two numbers ``'a,b'`` from the command line (``what`` says which, for the message)."""
+    try:
+        a, b = (float(x) for x in text.split(","))
+    except ValueError:
+        raise ParameterError(f"{opt} takes two numbers {what}, got {text!r}.") from None
+    return a, b
+
+
+@dataclass(frozen=True)
+class JobConfig:
+    """Every option of the main job. Lengths in mm, feed in mm/min, period in ms.
+
+    Attributes
+    ----------
+    surface : str
+        SURFACE as on the command line (mesh path, built-in spec, ``.toml``).
+    units, scale, component
+        Mesh-file options (see :func:`polishpath.surfaces.load_mesh`).
+    method : str
+        Flattening (:data:`polishpath.flatten.METHODS`): ``mabf`` (default), ``abf``, ``lscm``, ``projection``.
+    pattern : str
+        Path pattern (:data:`polishpath.plan.PATTERNS`): ``pseudorandom`` (default), ``raster``, ``spiral``,
+        ``rectangular``, or a peer of the paper's Table 3: ``unicursal``, ``maze``, ``fractal``, ``hilbert``.
+    spacing : float
+        Dwell-point spacing, mm. Honoured on the part by default (see ``spacing_on``).
+    spacing_on : {"surface", "plane"}
+        ``surface``: the planar spacing is reduced so that no step on the part
+        exceeds sqrt(2) x spacing; ``plane``: plain planar grid of that spacing.
+    seed : int or None
+        Seed of the random walk; None draws one (and records it).
+    start : (u, v) or None
+        Planar start point, mm; None: the dwell point nearest the region's centre.
+    margin : float
+        Keep dwell points at least this far inside the boundary (in the plane), mm.
+    feed_mm_min, period_ms, chord_tol_mm : float or None
+        Machine interpolation; None uses the defaults of :mod:`polishpath.defaults`.
+    gcode : {"linear", "nurbs"}
+        G-code flavour: dense G01 moves or Fanuc-style G06.2 NURBS blocks.
+    tool_radius : float
+        Offset contact points to the tool centre along the normal, mm (0: none).
+    dwell_times : str or None
+        CSV of per-dwell-point times (s), in path order.
+    report : bool
+        Write ``report.html`` and PNG figures.
+    max_points : int
+        Refuse to plan more dwell points than this.
+    max_oversampling : float
+        Refuse when honouring the spacing on the part needs more than this many
+        times the dwell points a uniform grid of that spacing would put on the
+        part (area / spacing^2): the flattening stretches the part too much for
+        one planar grid (an almost closed mesh, say).
+    """
+
+    surface: str = option("hemisphere", help="Mesh file, built-in[:key=value,...], analytic spec or .toml spec.")
+    units: str | None = option(None, "--units", help="Units of a mesh file: mm (default), m, cm, um, in.")
+    scale: float | None = option(None, "--scale", help="Extra scale factor for a mesh file, to millimetres.",
+                                 positive=True)
+    component: str = option("refuse", "--component", help="Several pieces: 'refuse' (default) or 'largest'.")
+    method: str = option("mabf", "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection.")
+    pattern: str = option("pseudorandom", "--pattern", "-p",
+                          help="pseudorandom (default), raster, spiral, rectangular, or a peer: unicursal, maze, "
+                               "fractal, hilbert.")
+    spacing: float = option(0.5, "--spacing", "-s", help="Dwell-point spacing on the part, mm (default 0.5).",
+                            positive=True)
+    spacing_on: str = option("surface", "--spacing-on", choices=("surface", "plane"),
+                             help="'surface' (default: no step on the part over sqrt(2) x spacing) or 'plane'.")
+    seed: int | None = option(None, "--seed", help="Random seed (default: drawn and recorded).")
+    start: tuple[float, float] | None = option(
+        None, "--start", help="Planar start point 'u,v' in mm (default: nearest the centre).",
+        parse=parse_pair, cli_type=str)
+    margin: float = option(0.0, "--margin", help="Keep dwell points this far inside the boundary, mm.",
+                           nonnegative=True)
+    feed_mm_min: float | None = option(None, "--feed", help=f"Feed rate, mm/min (default {DEFAULT_FEED_MM_MIN:g}).",
+                                       positive=True)
+    period_ms: float | None = option(None, "--period", help=f"Interpolation period, ms (default {DEFAULT_PERIOD_MS:g}).",
+                                     positive=True)
+    chord_tol_mm: float | None = option(None, "--chord-tol",
+                                        help=f"Chord error tolerance, mm (default {DEFAULT_CHORD_TOL_MM:g}).",
+                                        positive=True)
+    gcode: str = option("linear", "--gcode", choices=("linear", "nurbs"),
+                        help="'linear' (G01, default) or 'nurbs' (G06.2).")
+    tool_radius: float = option(0.0, "--tool-radius", help="Offset to the tool centre along the normal, mm.",
+                                nonnegative=True)
+    dwell_times: str | None = option(None, "--dwell-times", help="CSV of per-dwell-point times (s) in path order.")
+    report: bool = option(True, "--report/--no-report", help="Write report.html and the PNG figures (default: yes).")
+    max_points: int = option(5_000_000, "--max-points", help="Refuse to plan more dwell points than this.",
+                             positive=True)
+    max_oversampling: float = option(
+        16.0, "--max-oversampling", positive=True,
+        help="Refuse when honouring the spacing on the part needs more than this many times the dwell points of a "
+             "uniform grid on the part.")
+
+    def validate(self) -> None:
+        """Check every field (type, range, choices); :class:`ParameterError` names the first bad one."""
+        for f in dataclasses.fields(self):
+            _check(f, getattr(self, f.name))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The options as plain values (``start`` as a list), JSON- and TOML-ready."""
+        d = dataclasses.asdict(self)
+        if d["start"] is not None:
+            d["start"] = list(d["start"])
+        return d
+
+    def to_toml(self) -> str:
+        """The config as TOML (``None`` options left out): the text of ``job.toml``."""
+        from .runfolder import job_toml
+
+        return job_toml(self.to_dict())
+
+    @classmethod
+    def from_toml(cls, path: str | Path, **overrides: Any) -> JobConfig:
+        """Read a job TOML (``[job]`` table, or top-level keys); ``overrides`` (not None) win."""
+        return parse_job(toml=path, **overrides)
+
+
+#: the fields of :class:`JobConfig` by name
+FIELDS: dict[str, dataclasses.Field] = {f.name: f for f in dataclasses.fields(JobConfig)}
+#: the fields that have command-line flags, in declaration order: ``polishpath plan`` is built from these
+CLI_OPTIONS: tuple[dataclasses.Field, ...] = tuple(f for f in FIELDS.values() if f.metadata["flags"])
+_TYPES = typing.get_type_hints(JobConfig)
+
+
+def value_type(name: str) -> Any:
+    """The value type of option ``name`` without ``None`` (``float`` for ``float | None``)."""
+    t = _TYPES[name]
+    args = [a for a in typing.get_args(t) if a is not type(None)]
+    return args[0] if typing.get_origin(t) in (typing.Union, types.UnionType) else t
+
+
+def _where(f: dataclasses.Field) -> str:
+    flags = f.metadata["flags"]
+    return f"{f.name} ({flags[0].split('/')[0]})" if flags else f.name
+
+
+def _check(f: dataclasses.Field, v: Any) -> Any:
+    """``v`` checked for field ``f`` (and a list made a tuple for ``start``); raises ParameterError."""
+    if v is None:
+        if f.default is None:
+            return None
+        raise ParameterError(f"{f.name} must be given, got None.", f"Leave it out for the default {f.default!r}.")
+    m, t = f.metadata, value_type(f.name)
+    if m["parse"] is not None and isinstance(v, str):  # a flag's text, e.g. --start 'u,v'
+        v = m["parse"](v)
+    if f.name == "seed":  # checked here, drawn (when None) by the job: both through resolve_seed
+        from .provenance import resolve_seed
+
+        return resolve_seed(v)
+    if t is float:
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        kind = "a number"
+    elif t is int:
+        ok = isinstance(v, int) and not isinstance(v, bool)
+        kind = "a whole number"
+    elif t is bool:
+        ok = isinstance(v, bool)
+        kind = "true or false"
+    elif t is str:
+        ok = isinstance(v, str)
+        kind = "text"
+    else:  # the (u, v) pair
+        ok = (isinstance(v, (list, tuple)) and len(v) == 2
+              and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v))
+        kind = "two numbers [u, v] in mm"
+        v = tuple(float(x) for x in v) if ok else v
+    if not ok:
+        raise ParameterError(f"{_where(f)} must be {kind}, got {v!r}.", f"Default: {f.default!r}.")
+    if m["positive"] and not v > 0:
+        raise ParameterError(f"{f.name} must be a positive number, got {v!r}.")
+    if m["nonnegative"] and not v >= 0:
+        raise ParameterError(f"{f.name} must be >= 0, got {v!r}.")
+    if m["choices"] and v not in m["choices"]:
+        names = [repr(c) for c in m["choices"]]
+        raise ParameterError(f"{f.name} must be {', '.join(names[:-1])} or {names[-1]}, got {v!r}.")
+    return v
+
+
+def parse_job(*, toml: str | Path | None = None, base: JobConfig | None = None, **options: Any) -> JobConfig:
+    """The one way to a :class:`JobConfig`: defaults <- ``base`` <- TOML file <- ``options``.
+
+    Parameters
+    ----------
+    toml : path, optional
+        A job TOML: a ``[job]`` table (or top-level keys) of option names. A
+        relative ``surface`` or ``dwell_times`` path that exists beside the file
+        is taken relative to it.
+    base : JobConfig, optional
+        Start from these options instead of the defaults.
+    **options
+        Option values; ``None`` means "not given" (the earlier source stays).
+
+    Returns
+    -------
+    JobConfig
+        Every value checked (the seed too, but not drawn: ``None`` stays None
+        until :func:`polishpath.pipeline.run` draws it).
+
+    Raises
+    ------
+    SpecError
+        The TOML has unknown keys or is not a table of options.
+    ParameterError
+        An unknown keyword option, or a value of the wrong type or range.
+    """
+    values: dict[str, Any] = dataclasses.asdict(base) if base is not None else {}
+    if toml is not None:
+        values.update(_read_job_toml(Path(toml)))
+    unknown = set(options) - set(FIELDS)
+    if unknown:
+        raise ParameterError(f"unknown job option(s) {', '.join(sorted(unknown))}.",
+                             f"Options: {', '.join(FIELDS)}.")
+    values.update({k: v for k, v in options.items() if v is not None})
+    return JobConfig(**{k: _check(FIELDS[k], v) for k, v in values.items()})
+
+
+def _read_job_toml(p: Path) -> dict[str, Any]:
+    from .runfolder import read_toml
+
+    data = read_toml(p, "job file")
+    table = data.get("job", data)
+    if not isinstance(table, dict):
+        raise SpecError(f"{p.name}: [job] must be a table of options.")
+    unknown = set(table) - set(FIELDS)
+    if unknown:
+        raise SpecError(f"{p.name}: unknown job option(s) {', '.join(sorted(unknown))}.",
+                        f"Options: {', '.join(sorted(FIELDS))}.")
+    kw = dict(table)
+    for key in ("surface", "dwell_times"):  # a relative path beside the file is relative to it
+        v = kw.get(key)
+        if isinstance(v, str) and not Path(v).is_absolute() and (p.parent / v).exists():
+            kw[key] = str(p.parent / v)
+    return kw
