@@ -1,15 +1,30 @@
 """Architecture rule: the data flows one way, and stages meet only through plain data.
 
-surface -> flatten -> plan -> map -> smooth -> export / simulate / report -> paper
+    core -> surfaces -> flatten -> plan -> mapping -> smooth -> export / psd / simulate / report
+         -> config -> pipeline -> paper -> cli
 
-Each stage may import the core (types, errors, meshops, pathops, progress, _version) and
-stages upstream of it (earlier in ORDER), never a stage downstream: a stage
-that needs a later stage's result is wrong about where it sits in the flow.
-Stages exchange plain data (the dataclasses of polishpath.types).
+Every module and package under ``src/polishpath`` is a unit of one of these
+layers, and the rule below covers every unit, with no exception:
+
+* the **core** (types, errors, meshops, pathops, progress, fileio, runfolder,
+  provenance, defaults, _version) imports only the core;
+* a **stage** imports the core and stages upstream of it (earlier in ORDER),
+  never one downstream: a stage that needs a later stage's result is wrong
+  about where it sits in the flow (the planner and the flattening do not use
+  each other at all);
+* the **wiring**: ``config`` (the job's options) imports only the core;
+  ``pipeline`` (the one place stages are wired together) imports stages and config;
+* on top: ``paper`` (the reproduction, built on the pipeline), ``cli`` (the
+  command line), ``__main__`` and the package ``__init__``.
+
+No two units import each other (no import circle), and no module reaches
+outside the package for files (``Path(__file__).parents[...]`` into the
+checkout): data folders come in as arguments.
 
 How to fix a failure: move the shared code into polishpath/meshops.py (mesh
-maths), polishpath/pathops.py (path maths) or polishpath/types.py (data), or pass the data in from
-polishpath/pipeline.py, which is the one place allowed to wire stages together.
+maths), polishpath/pathops.py (path maths) or polishpath/types.py (data), or
+pass the data in from polishpath/pipeline.py; a new module or package gets its
+place in ORDER (or CORE) here.
 """
 
 from __future__ import annotations
@@ -21,11 +36,13 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
 CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "provenance", "defaults", "_version"}
-# the wiring (config: the job's options, pipeline: the one place stages meet) sits above every stage;
-# the paper reproduction above it
-ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report", "config", "pipeline", "paper"]
-# the planner and flattening do not need each other's code either way: both take plain data
+# every other unit, upstream first
+ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report",
+         "config", "pipeline", "paper", "cli", "__main__", "__init__"]
+# pairs (unit, upstream unit) that may not meet although the order would allow it
 INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces")}
+# the job's options need only the core: no stage is loaded to read a config
+INDEPENDENT |= {("config", u) for u in ORDER[:ORDER.index("config")]}
 ALLOWED = {st: {u for u in ORDER[:i] if (st, u) not in INDEPENDENT} for i, st in enumerate(ORDER)}
 
 
@@ -66,35 +83,96 @@ def imported_stages(path: Path) -> set[tuple[str, int]]:
     return out
 
 
-def stage_files():
+def unit_files():
     for p in sorted(SRC.rglob("*.py")):
-        st = stage_of(p)
-        if st in ALLOWED:
+        if stage_of(p) not in CORE:
             yield p
 
 
-@pytest.mark.parametrize("path", list(stage_files()), ids=lambda p: str(p.relative_to(SRC)))
-def test_stage_imports_follow_the_data_flow(path):
+@pytest.mark.parametrize("path", list(unit_files()), ids=lambda p: str(p.relative_to(SRC)))
+def test_imports_follow_the_data_flow(path):
     st = stage_of(path)
+    assert st in ALLOWED, f"{path.relative_to(SRC)} belongs to no layer: give {st!r} its place in ORDER or CORE"
     for name, line in imported_stages(path):
         if name == st or name in CORE:
             continue
         assert name in ALLOWED[st], (
-            f"{path.relative_to(SRC)}:{line} imports polishpath.{name}, but the {st} stage may only use "
-            f"the core ({', '.join(sorted(CORE))}) and {sorted(ALLOWED[st]) or 'no other stage'}. "
+            f"{path.relative_to(SRC)}:{line} imports polishpath.{name}, but {st} may only use "
+            f"the core ({', '.join(sorted(CORE))}) and {sorted(ALLOWED[st]) or 'no other unit'}. "
             "Take the data as an argument (a polishpath.types dataclass) and wire the stages in "
-            "polishpath/pipeline.py, or move shared maths into polishpath/meshops.py."
+            "polishpath/pipeline.py, or move shared maths into polishpath/meshops.py / pathops.py."
         )
 
 
-def test_core_imports_no_stage():
+def test_core_imports_only_the_core():
     for name in CORE:
         p = SRC / f"{name}.py"
+        assert p.is_file(), f"core module {name}.py is listed in CORE but does not exist"
         for imp, line in imported_stages(p):
-            assert imp in CORE, f"core module {name}.py:{line} imports stage {imp}; the core must not depend on stages."
+            assert imp in CORE, f"core module {name}.py:{line} imports {imp}; the core must not depend on stages."
 
 
-def test_every_stage_is_covered_by_the_rule():
-    stages = {p.name for p in SRC.iterdir() if p.is_dir() and not p.name.startswith("__")}
-    missing = stages - set(ALLOWED)
-    assert not missing, f"new stage(s) {missing}: add them to ALLOWED in tests/test_architecture.py with their allowed imports"
+def test_every_unit_has_a_layer():
+    units = {p.name.removesuffix(".py") for p in SRC.iterdir()
+             if (p.is_dir() and (p / "__init__.py").exists()) or p.suffix == ".py"}
+    missing = units - set(ALLOWED) - CORE
+    assert not missing, f"new unit(s) {sorted(missing)}: add them to ORDER (or CORE) in tests/test_architecture.py"
+    assert not set(ALLOWED) & CORE
+
+
+def test_no_import_circle():
+    graph: dict[str, set[str]] = {}
+    for p in SRC.rglob("*.py"):
+        st = stage_of(p)
+        graph.setdefault(st, set()).update(n for n, _ in imported_stages(p) if n != st)
+
+    def visit(u, trail):
+        for v in sorted(graph.get(u, ())):
+            assert v not in trail, f"import circle: {' -> '.join([*trail, v])}"
+            visit(v, [*trail, v])
+
+    for u in sorted(graph):
+        visit(u, [u])
+
+
+def _climbs_out(node: ast.AST, depth: int) -> int | None:
+    """How far above polishpath/ a ``Path(__file__)`` expression climbs (None: it does not)."""
+    # count .parent steps and the index of .parents[k] above a __file__ name
+    steps, cur = 0, node
+    while True:
+        if isinstance(cur, ast.Attribute) and cur.attr == "parent":
+            steps, cur = steps + 1, cur.value
+        elif (isinstance(cur, ast.Subscript) and isinstance(cur.value, ast.Attribute) and cur.value.attr == "parents"
+              and isinstance(cur.slice, ast.Constant) and isinstance(cur.slice.value, int)):
+            steps, cur = steps + cur.slice.value + 1, cur.value.value
+        elif isinstance(cur, (ast.Call, ast.Attribute)):
+            cur = cur.func if isinstance(cur, ast.Call) else cur.value
+        else:
+            break
+    uses_file = any(isinstance(n, ast.Name) and n.id == "__file__" for n in ast.walk(node))
+    # from polishpath/a/b.py, depth 1: one step is a/, two are polishpath/, three leave the package
+    return steps - depth - 1 if uses_file and steps > depth + 1 else None
+
+
+@pytest.mark.parametrize("path", sorted(SRC.rglob("*.py")), ids=lambda p: str(p.relative_to(SRC)))
+def test_no_module_reads_paths_outside_the_package(path):
+    depth = len(path.relative_to(SRC).parts) - 1
+    tree = ast.parse(path.read_text(), filename=str(path))
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Attribute, ast.Subscript)):
+            out = _climbs_out(node, depth)
+            assert out is None, (
+                f"{path.relative_to(SRC)}:{node.lineno} climbs {out} folder(s) above the polishpath package from "
+                "__file__ (into a checkout that a user's install does not have). Take the folder as an argument."
+            )
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.startswith(("../", "/work/")):
+            raise AssertionError(f"{path.relative_to(SRC)}:{node.lineno} names a path outside the package: {node.value!r}")
+
+
+def test_the_path_rule_catches_a_climb(tmp_path):
+    # the rule itself: parents[2] from polishpath/x.py leaves the package, parent of the file does not
+    bad = ast.parse("Path(__file__).resolve().parents[2] / 'benchmarks'", mode="eval").body
+    good = ast.parse("Path(__file__).resolve().parent / 'data'", mode="eval").body
+    deep = ast.parse("Path(__file__).parent.parent.parent", mode="eval").body
+    assert _climbs_out(bad.left, 0) == 2 and _climbs_out(good.left, 0) is None
+    assert _climbs_out(deep, 1) == 1 and _climbs_out(deep, 2) is None
