@@ -183,3 +183,14 @@ def test_measure_surface_rows_and_errors():
     # a pattern that cannot plan becomes an error row when asked to, and raises otherwise
     rows = measure_surface(s, 500.0, seed=1, patterns=("unicursal",), spacing_on="plane", errors="row")["rows"]
     assert "error" in rows[0]
+
+
+def test_cli_names_a_missing_meshes_folder(tmp_path):
+    from typer.testing import CliRunner
+
+    from polishpath.cli import app
+
+    r = CliRunner().invoke(app, ["paper", "-o", str(tmp_path / "out"), "--quick", "-q", "--meshes",
+                                 str(tmp_path / "nowhere")])
+    assert r.exit_code == 2
+    assert "does not exist" in r.output and "--meshes" in r.output and "Traceback" not in r.output
