@@ -72,12 +72,11 @@ def nurbs_deviation(xyz: np.ndarray, pieces) -> float:
     float
         mm (repeated points are dropped first; a piece of one point counts 0).
     """
+    from ..pathops import split_by_pieces
     from ..smooth import evaluate, interpolate_nurbs
 
-    pieces = np.asarray([0, len(xyz)] if pieces is None else pieces)
     dev = 0.0
-    for a, b in zip(pieces[:-1], pieces[1:]):
-        q = xyz[a:b]
+    for q in split_by_pieces(xyz, pieces):
         if len(q) < 2:
             continue
         keep = np.ones(len(q), bool)
