@@ -19,23 +19,19 @@ def table2(doc: Document, figs: FigureSet, st: Settings, res: dict, seed: int) -
     """Write Table 2 and Fig. 9 into ``doc``; the measured rows go to ``res["table2"]``."""
     from .. import meshops
     from ..flatten import boundary_region, flatten
-    from ..mapping import map_to_surface
     from ..pipeline import plan_on_surface
-    from ..plan import plan
 
     s_mm = st.table2_spacing
     doc.h(2, "Table 2 — projection vs space MABF mapping on the hemisphere")
     surf = load(f"hemisphere:R=30,triangles={st.table2_triangles}")
     proj = flatten(surf, "projection")
     rp = boundary_region(proj)
-    pp = plan(rp, s_mm, "pseudorandom", seed=seed)
-    sp_proj = map_to_surface(proj, pp, surface_spacing=s_mm)
+    sp_proj = plan_on_surface(proj, rp, s_mm, seed=seed, spacing_on="plane").surface_path
     t = time.perf_counter()
     mabf = flatten(surf, "mabf")
     t_flat = time.perf_counter() - t
     rm = boundary_region(mabf)
-    pm = plan(rm, s_mm, "pseudorandom", seed=seed)
-    sp_plain = map_to_surface(mabf, pm, surface_spacing=s_mm)
+    sp_plain = plan_on_surface(mabf, rm, s_mm, seed=seed, spacing_on="plane").surface_path
     hon = plan_on_surface(mabf, rm, s_mm, seed=seed)
     sp_hon, h = hon.surface_path, hon.planar_spacing
     rows, data = [], []

@@ -152,7 +152,8 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
         dwell point), ``inner_gap_mm``, ``through_mm`` (our smoothing),
         ``own_spline_mm`` (fractal: its published approximating B-spline, else
         None), ``accuracy_dev_mm`` (the one the verdict reads), ``accuracy_how``,
-        ``largest_gap_mm`` (planar empty disc), ``seconds`` (planning),
+        ``largest_gap_mm`` (planar empty disc), ``seconds`` (planning, and
+        mapping where the job's wiring does both),
         ``seconds_total``), ``paths`` (pattern -> (PlanarPath, Region), for Fig. 8).
 
     Raises
@@ -182,11 +183,10 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
     mabf = flatten(surface, "mabf")
     flatten_s = time.perf_counter() - t
     rm = boundary_region(mabf)
-    if spacing_on == "surface":
-        hon = plan_on_surface(mabf, rm, spacing, seed=seed)
-        pr, spr, h = hon.planar, hon.surface_path, hon.planar_spacing
-    else:
-        pr, spr, h = None, None, spacing
+    # the paper's path through the job's wiring; its planar spacing is the one every MABF peer plans at
+    t = time.perf_counter()
+    hon = plan_on_surface(mabf, rm, spacing, seed=seed, spacing_on=spacing_on)
+    h, t_hon = hon.planar_spacing, time.perf_counter() - t
     proj: list = []  # the projection flattening, made when first needed
 
     rows, paths = [], {}
@@ -198,13 +198,16 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
                     pf = flatten(surface, "projection")
                     proj.extend([pf, boundary_region(pf)])
                 flat, region = proj
-                path, sp = plan(region, spacing, "pseudorandom", seed=seed), None
-            elif key == "mabf" and pr is not None:
-                flat, region, path, sp = mabf, rm, pr, spr
+                sp = plan_on_surface(flat, region, spacing, seed=seed, spacing_on="plane").surface_path
+                path = sp.planar
+            elif key == "mabf":
+                flat, region, path, sp = mabf, rm, hon.planar, hon.surface_path
             else:
+                # a peer as published may leave the part (the maze's overhang), which the job's wiring refuses:
+                # plan it in the plane, drop and count the points off the part, then map the rest
                 flat, region, sp = mabf, rm, None
-                path = plan(region, h, "pseudorandom" if key == "mabf" else key, seed=seed)
-            secs = time.perf_counter() - t
+                path = plan(region, h, key, seed=seed)
+            secs = t_hon if key == "mabf" else time.perf_counter() - t
             pm = path_metrics(path, region)
             on, dropped = on_part_only(flat, path)
             if sp is None:
