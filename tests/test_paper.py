@@ -194,3 +194,14 @@ def test_cli_names_a_missing_meshes_folder(tmp_path):
                                  str(tmp_path / "nowhere")])
     assert r.exit_code == 2
     assert "does not exist" in r.output and "--meshes" in r.output and "Traceback" not in r.output
+
+
+def test_measure_surface_error_rows_when_the_paper_path_fails():
+    from polishpath.paper.table3 import measure_surface
+    from polishpath.surfaces import load_surface
+
+    s = load_surface("hemisphere:R=30,triangles=600")
+    m = measure_surface(s, 500.0, seed=1, patterns=("mabf", "maze"), errors="row")
+    assert [r["pattern"] for r in m["rows"]] == ["mabf", "maze"] and all("too large" in r["error"] for r in m["rows"])
+    with pytest.raises(ParameterError, match="too large"):
+        measure_surface(s, 500.0, seed=1, patterns=("mabf",), spacing_on="plane")

@@ -183,10 +183,24 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
     mabf = flatten(surface, "mabf")
     flatten_s = time.perf_counter() - t
     rm = boundary_region(mabf)
-    # the paper's path through the job's wiring; its planar spacing is the one every MABF peer plans at
-    t = time.perf_counter()
-    hon = plan_on_surface(mabf, rm, spacing, seed=seed, spacing_on=spacing_on)
-    h, t_hon = hon.planar_spacing, time.perf_counter() - t
+    ours: list = []  # the paper's path through the job's wiring (and its time), made when first needed
+
+    def paper_path():
+        if not ours:
+            t0 = time.perf_counter()
+            ours.extend([plan_on_surface(mabf, rm, spacing, seed=seed, spacing_on=spacing_on),
+                         time.perf_counter() - t0])
+        return ours
+
+    h = spacing  # the planar spacing every MABF peer plans at: the paper path's, when honoured on the part
+    if spacing_on == "surface":
+        try:
+            h = paper_path()[0].planar_spacing
+        except PolishPathError as exc:
+            if errors == "raise":
+                raise
+            return {"surface": sname, "planar_spacing": float("nan"), "flatten_s": flatten_s, "paths": {},
+                    "rows": [{"surface": sname, "pattern": key, "error": str(exc)} for key in patterns]}
     proj: list = []  # the projection flattening, made when first needed
 
     rows, paths = [], {}
@@ -201,6 +215,7 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
                 sp = plan_on_surface(flat, region, spacing, seed=seed, spacing_on="plane").surface_path
                 path = sp.planar
             elif key == "mabf":
+                hon, t_hon = paper_path()
                 flat, region, path, sp = mabf, rm, hon.planar, hon.surface_path
             else:
                 # a peer as published may leave the part (the maze's overhang), which the job's wiring refuses:
