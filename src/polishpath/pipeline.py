@@ -34,7 +34,7 @@ from .types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPat
 SQRT2 = 2.0**0.5
 
 
-@dataclass
+@dataclass(frozen=True)
 class Job:
     """Results of every stage of one run, and what produced them."""
 
