@@ -158,3 +158,54 @@ def test_a_bad_integrator_is_a_clear_error():
     sp = map_to_surface(cap, serpentine_path(cap, 1.5, seed=1))
     with pytest.raises(ParameterError, match="ab-am"):
         smooth(sp, integrator="adams")
+
+
+# --- the option on the command line and in job.toml ------------------------------------------------------------
+
+SMALL = "hemisphere:R=15,triangles=800"
+
+
+def _plan(args):
+    from typer.testing import CliRunner
+
+    from polishpath.cli import app
+
+    return CliRunner().invoke(app, ["plan", *args])
+
+
+def test_integrator_option_round_trips_through_job_toml(tmp_path):
+    import json
+    import tomllib
+
+    first, again = tmp_path / "a", tmp_path / "b"
+    r = _plan([SMALL, "--spacing", "1.5", "--seed", "4", "--integrator", "ab-am", "-o", str(first), "--no-report",
+               "-q"])
+    assert r.exit_code == 0, r.output
+    summary = json.loads((first / "summary.json").read_text())
+    assert summary["smooth"]["provenance"]["params"]["integrator"] == "ab-am"
+    assert summary["smooth"]["stats"]["integrator"] == "ab-am"
+    assert tomllib.loads((first / "job.toml").read_text())["job"]["integrator"] == "ab-am"
+    r = _plan(["--config", str(first / "job.toml"), "-o", str(again), "--no-report", "-q"])
+    assert r.exit_code == 0, r.output
+    assert json.loads((again / "summary.json").read_text())["smooth"]["provenance"]["params"]["integrator"] == "ab-am"
+    for name in ("path.csv", "toolpath.xyz"):
+        assert (first / name).read_bytes() == (again / name).read_bytes(), name
+
+
+def test_default_integrator_is_taylor_in_the_job(tmp_path):
+    import json
+
+    r = _plan([SMALL, "--spacing", "1.5", "--seed", "4", "-o", str(tmp_path), "--no-report", "-q"])
+    assert r.exit_code == 0, r.output
+    assert json.loads((tmp_path / "summary.json").read_text())["smooth"]["provenance"]["params"]["integrator"] == "taylor"
+
+
+def test_bad_integrator_exits_2_with_the_choices(tmp_path):
+    r = _plan([SMALL, "--spacing", "1.5", "--integrator", "rk45", "-o", str(tmp_path / "x"), "-q"])
+    assert r.exit_code == 2
+    assert "integrator" in r.output and "ab-am" in r.output and "Traceback" not in r.output
+    bad = tmp_path / "job.toml"
+    bad.write_text(f'[job]\nsurface = "{SMALL}"\nspacing = 1.5\nintegrator = "adams"\n')
+    r = _plan(["--config", str(bad), "-o", str(tmp_path / "y"), "-q"])
+    assert r.exit_code == 2
+    assert "integrator" in r.output and "ab-am" in r.output and "Traceback" not in r.output
