@@ -150,6 +150,12 @@ def test_integrators_agree_on_the_schedule():
     assert abs(b.stats["dwell_time_error_max"] - a.stats["dwell_time_error_max"]) < 0.05
 
 
+def test_the_job_option_lists_every_integrator():
+    from polishpath.defaults import DEFAULT_INTEGRATOR, INTEGRATOR_NAMES
+
+    assert tuple(INTEGRATORS) == INTEGRATOR_NAMES and DEFAULT_INTEGRATOR == "taylor"
+
+
 def test_a_bad_integrator_is_a_clear_error():
     curve, _ = circle_or_helix("circle")
     with pytest.raises(ParameterError, match="integrator must be one of 'taylor', 'ab-am'"):

@@ -28,7 +28,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from .defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
+from .defaults import (
+    DEFAULT_CHORD_TOL_MM,
+    DEFAULT_FEED_MM_MIN,
+    DEFAULT_INTEGRATOR,
+    DEFAULT_PERIOD_MS,
+    INTEGRATOR_NAMES,
+)
 from .errors import ParameterError, SpecError
 
 
@@ -94,6 +100,10 @@ class JobConfig:
         Keep dwell points at least this far inside the boundary (in the plane), mm.
     feed_mm_min, period_ms, chord_tol_mm : float or None
         Machine interpolation; None uses the defaults of :mod:`polishpath.defaults`.
+    integrator : {"taylor", "ab-am"}
+        How the constant-period interpolation advances the curve parameter:
+        Taylor predictor with an exact chord corrector (default) or the paper's
+        Adams-Bashforth / Adams-Moulton (see docs/machine-output.md).
     gcode : {"linear", "nurbs"}
         G-code flavour: dense G01 moves or Fanuc-style G06.2 NURBS blocks.
     tool_radius : float
@@ -137,6 +147,10 @@ class JobConfig:
     chord_tol_mm: float | None = option(None, "--chord-tol",
                                         help=f"Chord error tolerance, mm (default {DEFAULT_CHORD_TOL_MM:g}).",
                                         positive=True)
+    integrator: str = option(DEFAULT_INTEGRATOR, "--integrator", choices=INTEGRATOR_NAMES,
+                             help="How the machine samples advance along the NURBS: 'taylor' (default: Taylor "
+                                  "predictor, exact chord corrector) or 'ab-am' (the paper's Adams-Bashforth / "
+                                  "Adams-Moulton).")
     gcode: str = option("linear", "--gcode", choices=("linear", "nurbs"),
                         help="'linear' (G01, default) or 'nurbs' (G06.2).")
     tool_radius: float = option(0.0, "--tool-radius", help="Offset to the tool centre along the normal, mm.",

@@ -10,3 +10,7 @@ DEFAULT_FEED_MM_MIN = 600.0
 DEFAULT_PERIOD_MS = 4.0
 #: largest allowed chord error between the samples and the NURBS, mm (1 um)
 DEFAULT_CHORD_TOL_MM = 0.001
+#: how the constant-period interpolation advances the curve parameter (smooth/interpolate.py: Taylor predictor
+#: with an exact chord corrector, or the paper's Adams-Bashforth / Adams-Moulton); docs/machine-output.md says why
+INTEGRATOR_NAMES = ("taylor", "ab-am")
+DEFAULT_INTEGRATOR = "taylor"

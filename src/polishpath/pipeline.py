@@ -419,6 +419,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     with progress.stage("path metrics", timings, "metrics"):
         pm = path_metrics(planar, region)
     smooth_kw = {k: getattr(cfg, k) for k in ("feed_mm_min", "period_ms", "chord_tol_mm") if getattr(cfg, k) is not None}
+    smooth_kw["integrator"] = cfg.integrator
     if cfg.dwell_times:
         from .export import read_dwell_times
 

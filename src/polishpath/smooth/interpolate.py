@@ -34,6 +34,7 @@ import time
 
 import numpy as np
 
+from ..defaults import DEFAULT_INTEGRATOR
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve
 from .abam import abam_kernel
@@ -44,8 +45,8 @@ __all__ = ["arc_lengths", "dwell_regions", "interpolate_constant_period", "chord
            "DEFAULT_INTEGRATOR", "integrator_kernel"]
 
 INTEGRATORS = {"taylor": taylor_kernel, "ab-am": abam_kernel}
-"""Name -> compiled kernel; every kernel takes and returns the same arrays (see :func:`.taylor.taylor_kernel`)."""
-DEFAULT_INTEGRATOR = "taylor"
+"""Name -> compiled kernel; every kernel takes and returns the same arrays (see :func:`.taylor.taylor_kernel`).
+The job's option lists the same names (``polishpath.defaults.INTEGRATOR_NAMES``, checked by a test)."""
 
 
 def integrator_kernel(name: str):
