@@ -312,76 +312,153 @@ def report_cmd(
 
 @app.command("simulate")
 def simulate_cmd(
-    surface: str = SURFACE_ARG,
-    patterns: str = typer.Option("pseudorandom,raster,spiral,rectangular", "--patterns", help="Comma-separated path patterns to compare."),
-    spacing: float = typer.Option(0.5, "--spacing", "-s", help="Dwell-point spacing, mm (in the flattened plane)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the planner, the initial surface and the process noise."),
-    output: Path = typer.Option(Path("out-simulate"), "-o", "--output", help="Output folder; a `polishpath plan` run folder gets a simulation/ subfolder and its report is rebuilt."),
-    patch: float = typer.Option(20.0, "--patch", help="Side of the simulated square patch at the region's centre, mm."),
-    dx: float = typer.Option(0.005, "--dx", help="Simulation pixel pitch, mm (5 um resolves 100 1/mm)."),
+    target: str = typer.Argument(..., metavar="SURFACE_OR_RUN_DIR", help="A surface (compare the path patterns on it), or the folder of a finished `polishpath plan ... -o DIR` run (simulate that run's own path on its part)."),
+    patterns: str = typer.Option("pseudorandom,raster,spiral,rectangular", "--patterns", help="SURFACE: comma-separated path patterns to compare."),
+    spacing: float = typer.Option(0.5, "--spacing", "-s", help="SURFACE: dwell-point spacing, mm, on the part as in `plan` (with --spacing-on plane: in the flattened plane). A run keeps its own."),
+    spacing_on: str = typer.Option("surface", "--spacing-on", help="SURFACE: where --spacing holds, 'surface' (the part, as in `plan`) or 'plane' (the flattened plane)."),
+    seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the planner, the initial surface and the process noise (default 0; RUN_DIR: the run's seed)."),
+    output: Optional[Path] = typer.Option(None, "-o", "--output", help="Output folder (default: out-simulate; RUN_DIR: RUN_DIR/simulation). A run folder gets a simulation/ subfolder and its report is rebuilt."),
+    patch: float = typer.Option(20.0, "--patch", help="SURFACE: side of the simulated square patch at the region's centre, mm."),
+    dx: Optional[float] = typer.Option(None, "--dx", help="Simulation pixel pitch, mm (SURFACE default 0.005: 5 um resolves 100 1/mm; RUN_DIR default: the finest of 5 um that keeps the whole part within 4 M pixels)."),
+    plane: str = typer.Option("auto", "--plane", help="RUN_DIR: 'xy' (the part's projected x, y), 'unrolled' (the flattening's plane, depth corrected by its area ratio) or 'auto' (xy for a height field with slopes <= 30 deg, else unrolled)."),
+    timing: str = typer.Option("machine", "--timing", help="RUN_DIR: 'machine' (the constant-period samples the machine runs) or 'dwell' (the dwell points with the times the schedule aimed at)."),
     rpm: float = typer.Option(230.0, "--rpm", help="Tool spin, 1/min (the paper's sponge: 230)."),
     radius: float = typer.Option(2.0, "--radius", help="Tool contact radius, mm."),
     pressure: str = typer.Option("parabolic", "--pressure", help="Contact pressure profile: parabolic, hertz, uniform, gaussian."),
-    feed: float = typer.Option(DEFAULT_FEED_MM_MIN, "--feed", help="Nominal feed, mm/min."),
+    feed: float = typer.Option(DEFAULT_FEED_MM_MIN, "--feed", help="Nominal feed of the tool model, mm/min (RUN_DIR: the run's own feed schedule moves the tool)."),
     fwhm: Optional[float] = typer.Option(None, "--fwhm", help="Use a plain Gaussian tool influence function of this FWHM (mm) instead of the rotating tool."),
     rate: float = typer.Option(5.0, "--rate", help="Peak removal rate of the Gaussian TIF (with --fwhm), nm/s."),
-    depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (sets the dwell time per point)."),
-    time_model: str = typer.Option("segments", "--time-model", help="'segments' (continuous motion), 'points' (stop and dwell) or 'machine' (NURBS at the interpolation period)."),
-    method: str = typer.Option("mabf", "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection."),
+    depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (SURFACE: sets the dwell time per point; RUN_DIR: scales the tool's rate)."),
+    time_model: str = typer.Option("segments", "--time-model", help="SURFACE: 'segments' (continuous motion), 'points' (stop and dwell) or 'machine' (NURBS at the interpolation period)."),
+    method: str = typer.Option("mabf", "--method", "-m", help="SURFACE: flattening, mabf (default), abf, lscm, projection."),
     units: Optional[str] = UNITS_OPT,
     scale: Optional[float] = SCALE_OPT,
     component: str = COMPONENT_OPT,
-    json_out: bool = typer.Option(False, "--json", help="Print the comparison as JSON."),
+    json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
-    """Simulate polishing with each path pattern and compare the PSD before and after (the paper's Table 4).
+    """Simulate polishing: compare the path patterns on a surface (the paper's Table 4), or a finished run's own path.
 
-    Plans every pattern on the flattened surface, simulates Preston removal with
-    the same tool and process on a patch of the part (by default a sponge
-    spinning at 230 rpm whose footprint leans with the feed direction), and prints before / after
-    band-average PSD (1e3-1e5 1/m) and the suppression ratio; writes psd.png,
-    residual maps, table.txt and results.json. The model's assumptions are in
-    docs/simulation.md.
+    SURFACE: plans every pattern on the part through the job's own wiring
+    (spacing on the part, as in `plan`), simulates Preston removal with the same
+    tool and process on a patch of the flattened plane (by default a sponge
+    spinning at 230 rpm whose footprint leans with the feed direction), and
+    prints before / after band-average PSD (1e3-1e5 1/m) and the suppression
+    ratio; writes psd.png, residual maps, table.txt and results.json.
 
-    Example: polishpath simulate hemisphere --spacing 0.5 --seed 1 -o out-sim
+    RUN_DIR: simulates the run's own path (its machine samples, or its dwell
+    points) over its whole part from a flat start, and prints the depth's mean,
+    RMS and PV inside the part and the PSD of its centre; writes
+    RUN_DIR/simulation/ and rebuilds the run's report. The model's assumptions
+    are in docs/simulation.md.
+
+    Examples: polishpath simulate hemisphere --spacing 0.5 --seed 1 -o out-sim ;
+    polishpath simulate out-run
     """
-    from . import progress
-    from .flatten import boundary_region, flatten
-    from .errors import ParameterError, PatchTooSmallError
-    from .simulate import compare_patterns, gaussian_tif, rotating_tool_tif
-    from .surfaces import load_surface
+    from .simulate import gaussian_tif, rotating_tool_tif
 
     _quiet(quiet, json_out)
-    with _guard(output):
-        pats = [p.strip() for p in patterns.split(",") if p.strip()]
-        if not pats:
-            raise ParameterError("--patterns is empty.", "Name at least one pattern, e.g. pseudorandom,raster.")
-        with progress.stage("reading surface"):
-            s = load_surface(surface, units=units, scale=scale, component=component)
-        with progress.stage(f"flattening ({method})"):
-            region = boundary_region(flatten(s, method))
-        run_dir = output
-        sim_dir = output / "simulation" if (output / "summary.json").exists() else output
-        with progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):
-            tif = (gaussian_tif(rate, fwhm_mm=fwhm) if fwhm is not None
-                   else rotating_tool_tif(rpm, radius, pressure, feed_mm_min=feed))
-            try:
-                res = compare_patterns(region, pats, spacing, seed, dx_mm=dx, tif=tif,
-                                       removal_depth_nm=depth, time_model=time_model, patch_mm=patch, out_dir=sim_dir)
-            except PatchTooSmallError:
-                raise PatchTooSmallError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
-                                         "inside the patch, away from its edges by the tool's reach.",
-                                         "Use --patch 10 or larger.") from None
-        if sim_dir != output:
-            from .pipeline import rebuild_report
+    run_mode = Path(target).is_dir()
+    with _guard(None if run_mode else (output or Path("out-simulate"))):
+        tif = (gaussian_tif(rate, fwhm_mm=fwhm) if fwhm is not None
+               else rotating_tool_tif(rpm, radius, pressure, feed_mm_min=feed))
+        if run_mode:
+            _simulate_run(Path(target), output, tif, plane=plane, timing=timing, dx=dx, depth=depth, seed=seed,
+                          json_out=json_out)
+        else:
+            _simulate_patterns(target, output or Path("out-simulate"), tif, patterns=patterns, spacing=spacing,
+                               spacing_on=spacing_on, seed=0 if seed is None else seed, patch=patch,
+                               dx=0.005 if dx is None else dx, depth=depth, time_model=time_model, method=method,
+                               units=units, scale=scale, component=component, json_out=json_out)
 
-            with progress.stage("rebuilding the run's report"):
-                rebuild_report(run_dir)
-        if json_out:
-            _print_json({"surface": s.source or s.name, "output": str(sim_dir), "rows": res["rows"], "params": res["params"]})
-            return
-        typer.echo(res["table"])
-        typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, psd.png, residual maps)")
+
+def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, dx, depth, seed, json_out) -> None:
+    """``polishpath simulate RUN_DIR``: the run's own path on its part (read through polishpath.runfolder)."""
+    from . import progress
+    from .runfolder import SIMULATION_DIR, read_run
+    from .simulate import simulate_job
+    from .simulate.jobfiles import clear_outputs, format_job_table, write_job_outputs
+
+    with progress.stage("reading the run"):
+        run = read_run(run_dir)
+        tool_path, surface, flat = run.tool_path, run.surface, run.flattening
+    run_seed = run.summary.get("seed")
+    seed = seed if seed is not None else (run_seed if isinstance(run_seed, int) else 0)
+    name = f"{run_dir.name} ({surface.source or surface.name}, {tool_path.surface_path.planar.pattern}, " \
+           f"{len(tool_path.dwell_params):,} dwell points, seed {run_seed})"
+    with progress.stage(f"simulating the run's own path ({timing} timing)"):
+        out = simulate_job(tool_path, surface, flattening=flat, plane=plane, timing=timing, tif=tif, dx_mm=dx,
+                           depth_nm=depth, seed=seed, spacing_mm=run.spacing)
+    sim_dir = output if output is not None else run_dir / SIMULATION_DIR
+    clear_outputs(sim_dir)
+    write_job_outputs(out, sim_dir, run_dir.name)
+    if sim_dir.resolve() == (run_dir / SIMULATION_DIR).resolve():
+        from .pipeline import rebuild_report
+
+        with progress.stage("rebuilding the run's report"):
+            rebuild_report(run_dir)
+    if json_out:
+        _print_json({"run": str(run_dir), "output": str(sim_dir), "summary": out["summary"]})
+        return
+    typer.echo(f"run: {name}")
+    typer.echo(format_job_table(out["summary"], run_dir.name), nl=False)
+    typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, removal.png, residual.png"
+               + (", psd.png)" if out["psd"] is not None else ")"))
+
+
+def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, spacing_on, seed, patch, dx, depth,
+                       time_model, method, units, scale, component, json_out) -> None:
+    """``polishpath simulate SURFACE``: plan each pattern through pipeline.plan_on_surface, compare in the plane."""
+    from . import progress
+    from .errors import ParameterError
+    from .flatten import boundary_region, flatten
+    from .pipeline import plan_on_surface
+    from .errors import PatchTooSmallError
+    from .simulate import compare_planned
+    from .simulate.compare import patch_bounds_at_centre
+    from .simulate.jobfiles import clear_outputs
+    from .surfaces import load_surface
+
+    pats = [p.strip() for p in patterns.split(",") if p.strip()]
+    if not pats:
+        raise ParameterError("--patterns is empty.", "Name at least one pattern, e.g. pseudorandom,raster.")
+    with progress.stage("reading surface"):
+        s = load_surface(surface, units=units, scale=scale, component=component)
+    with progress.stage(f"flattening ({method})"):
+        flat = flatten(s, method)
+        region = boundary_region(flat)
+    planned, info = {}, {}
+    for pat in pats:
+        with progress.stage(f"planning {pat} ({spacing:g} mm on the {'part' if spacing_on == 'surface' else 'plane'})"):
+            sp = plan_on_surface(flat, region, spacing, pattern=pat, seed=seed, spacing_on=spacing_on)
+        planned[pat] = sp.planar
+        info[pat] = {"n_points": int(sp.planar.n_points), "planar_spacing_mm": float(sp.planar_spacing),
+                     "spacing_mm": float(spacing), "spacing_on": spacing_on,
+                     "provenance": sp.planar.provenance.to_dict()}
+    sim_dir = output / "simulation" if (output / "summary.json").exists() else output
+    with progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):
+        try:
+            bounds = patch_bounds_at_centre(region, patch)
+            clear_outputs(sim_dir)
+            res = compare_planned(planned, seed=seed, dx_mm=dx, tif=tif, removal_depth_nm=depth,
+                                  time_model=time_model, patch_bounds=bounds, out_dir=sim_dir, plan_info=info)
+        except PatchTooSmallError:
+            raise PatchTooSmallError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
+                                     "inside the patch, away from its edges by the tool's reach.",
+                                     "Use --patch 10 or larger.") from None
+    if sim_dir != output:
+        from .pipeline import rebuild_report
+
+        with progress.stage("rebuilding the run's report"):
+            rebuild_report(output)
+    if json_out:
+        _print_json({"surface": s.source or s.name, "output": str(sim_dir), "rows": res["rows"], "params": res["params"]})
+        return
+    typer.echo(res["table"])
+    typer.echo(f"spacing {spacing:g} mm on the {'part' if spacing_on == 'surface' else 'flattened plane'}; "
+               "simulated in the flattened plane at each pattern's planar spacing ("
+               + ", ".join(f"{k} {v['planar_spacing_mm']:.3g} mm" for k, v in info.items()) + ")")
+    typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, psd.png, residual maps)")
 
 
 @app.command("psd")

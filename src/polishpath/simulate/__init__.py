@@ -28,6 +28,7 @@ from .removal import (
 )
 from .rotating import RotatingBasis, RotatingToolTIF, rotating_tool_tif
 from .tif import TIF, DirectionalTIF, gaussian_tif, measured_tif, tilted_tool_tif
+from .jobfiles import format_job_table, write_job_outputs
 from .jobpath import PLANES, TIMINGS, TimedPath, choose_plane, simulate_job, simulate_path, timed_path
 from .workpiece import Workpiece, flat_workpiece, synthetic_workpiece, workpiece_from_measurement
 
@@ -39,5 +40,5 @@ __all__ = [
     "simulate_removal", "smooth_surface", "synthetic_workpiece",
     "tilted_tool_tif", "workpiece_from_measurement", "RotatingBasis", "RotatingToolTIF", "rotating_tool_tif",
     "path_clock", "path_motion_samples", "TIME_MODELS", "PLANES", "TIMINGS", "TimedPath", "choose_plane",
-    "simulate_job", "simulate_path", "timed_path",
+    "simulate_job", "simulate_path", "timed_path", "format_job_table", "write_job_outputs",
 ]

@@ -81,7 +81,7 @@ def _crop(res_map: np.ndarray, origin, dx, bounds) -> np.ndarray:
     n = int(np.floor((min(xmax - xmin, ymax - ymin)) / dx + 1e-9))
     if i0 < 0 or j0 < 0 or j0 + n > res_map.shape[0] or i0 + n > res_map.shape[1] or n < 16:
         raise PatchTooSmallError(f"evaluation window {bounds} does not fit in the simulated patch.",
-                             "Use a smaller eval_inset_mm or a larger patch.")
+                                 "Use a smaller eval_inset_mm or a larger patch.")
     return res_map[j0:j0 + n, i0:i0 + n]
 
 

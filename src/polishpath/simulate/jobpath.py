@@ -274,7 +274,8 @@ def choose_plane(surface: Surface, plane: str = "auto", flattening: Flattening |
     if flattening is None:
         return "xy", (f"projected x, y although the part slopes up to {slope:.1f} deg: no flattening was given "
                       "for the unrolled plane")
-    why = "folds over x, y" if not hf else f"slopes up to {slope:.1f} deg (> {AUTO_XY_MAX_SLOPE_DEG:g})"
+    why = (f"slopes up to {slope:.1f} deg (> {AUTO_XY_MAX_SLOPE_DEG:g})"
+           + ("" if hf else " and folds over x, y"))
     return "unrolled", (f"unrolled (the flattening's plane): the part {why}, so its projection would squeeze "
                         "the steep parts; the depth is corrected by the flattening's local area ratio")
 

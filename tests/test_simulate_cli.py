@@ -1,0 +1,94 @@
+"""`polishpath simulate RUN_DIR` simulates that run's own path; `simulate SURFACE` plans through the job's wiring."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from polishpath.cli import app
+
+runner = CliRunner()
+DOME = "hemisphere:R=12,triangles=700"
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    r = runner.invoke(app, ["plan", DOME, "--spacing", "1", "--seed", "3", "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    return out, json.loads((out / "summary.json").read_text())
+
+
+def test_simulate_run_dir_uses_the_runs_own_path(small_run):
+    out, summary = small_run
+    r = runner.invoke(app, ["simulate", str(out), "--dx", "0.1", "-q"])
+    assert r.exit_code == 0, r.output
+    assert f"run: {out.name}" in r.output and "machine timing" in r.output
+    assert "plane: unrolled" in r.output  # the dome's rim is vertical: auto takes the flattening's plane
+    sim = out / "simulation"
+    for f in ("table.txt", "results.json", "removal.png", "residual.png"):
+        assert (sim / f).stat().st_size > 0, f
+    res = json.loads((sim / "results.json").read_text())
+    smooth = summary["smooth"]["stats"]
+    # the removal ran on the run's own machine samples: their count and the run's machine time
+    assert res["path"]["n_points"] == smooth["n_samples"]
+    assert res["total_time_s"] == pytest.approx(smooth["duration_s"], rel=1e-9)
+    assert res["depth_mean_nm"] == pytest.approx(200.0, rel=1e-6)
+    html = (out / "report.html").read_text()  # the run's report shows the simulation
+    assert "removal.png" in html and "depth inside the part" in html
+
+
+def test_simulate_run_dir_dwell_timing_and_json(small_run):
+    out, summary = small_run
+    r = runner.invoke(app, ["simulate", str(out), "--dx", "0.1", "--timing", "dwell", "--plane", "xy", "--json",
+                            "-o", str(out / "sim-dwell")])
+    assert r.exit_code == 0, r.output
+    js = json.loads(r.output)
+    s = js["summary"]
+    assert js["run"] == str(out) and s["plane"] == "xy" and s["timing"] == "dwell"
+    # the run's dwell points with the run's dwell times
+    assert s["path"]["n_points"] == summary["plan"]["dwell_points"]
+    assert s["total_time_s"] == pytest.approx(summary["smooth"]["stats"]["dwell_time_total_s"], rel=1e-9)
+    assert s["seed"] == 3  # the run's seed
+
+
+def test_simulate_bad_input_exits_2_with_a_message(small_run, tmp_path):
+    out, _ = small_run
+    r = runner.invoke(app, ["simulate", str(out), "--plane", "polar"])
+    assert r.exit_code == 2 and "plane" in r.output and "Traceback" not in r.output
+    r = runner.invoke(app, ["simulate", str(out), "--timing", "sometimes"])
+    assert r.exit_code == 2 and "timing" in r.output
+    r = runner.invoke(app, ["simulate", str(tmp_path)])  # a folder that is not a run
+    assert r.exit_code == 2 and "run folder" in r.output
+    r = runner.invoke(app, ["simulate", DOME, "--patterns", "raster", "--spacing", "1", "--patch", "3",
+                            "--dx", "0.05", "-o", str(tmp_path / "tiny")])
+    assert r.exit_code == 2 and "--patch" in r.output
+
+
+def test_simulate_surface_plans_with_the_spacing_on_the_part(tmp_path):
+    args = ["simulate", DOME, "--patterns", "raster,pseudorandom", "--spacing", "1", "--patch", "8", "--dx", "0.05",
+            "--fwhm", "1", "--seed", "2", "-o", str(tmp_path / "cmp"), "--json"]
+    r = runner.invoke(app, args)
+    assert r.exit_code == 0, r.output
+    js = json.loads(r.output)
+    plans = js["params"]["plans"]
+    for pat in ("raster", "pseudorandom"):
+        assert plans[pat]["spacing_on"] == "surface" and plans[pat]["spacing_mm"] == 1.0
+        # on a dome the plane's grid is finer than the spacing on the part (the step reduction of `plan`)
+        assert plans[pat]["planar_spacing_mm"] < 1.0
+    rows = {row["name"]: row for row in js["rows"]}
+    assert rows["raster"]["planar_spacing_mm"] == pytest.approx(plans["raster"]["planar_spacing_mm"])
+    # the same spacing as `plan`: the job at this spacing plans the same planar grid
+    r2 = runner.invoke(app, ["plan", DOME, "--spacing", "1", "--pattern", "raster", "--seed", "2", "--json",
+                             "--no-report", "-o", str(tmp_path / "job")])
+    assert r2.exit_code == 0, r2.output
+    job = json.loads(r2.output)
+    assert job["plan"]["planar_spacing_mm"] == pytest.approx(plans["raster"]["planar_spacing_mm"], rel=1e-12)
+    # --spacing-on plane keeps the planar grid as given
+    r3 = runner.invoke(app, args[:-3] + ["--spacing-on", "plane", "-o", str(tmp_path / "cmp2"), "--json"])
+    assert r3.exit_code == 0, r3.output
+    assert json.loads(r3.output)["params"]["plans"]["raster"]["planar_spacing_mm"] == 1.0
+    assert np.isfinite([row["suppression_ratio"] for row in json.loads(r3.output)["rows"]]).all()
