@@ -126,8 +126,8 @@ def path_motion_samples(path_xy, dwell_s, step_mm: float, pieces=None, time_mode
         return _timed_moves(p, t, step_mm, pieces)
     out_xy, out_t, out_h, out_s, out_l = [], [], [], [], []
     s0 = 0.0
-    for a, b in zip(pieces[:-1], pieces[1:]):
-        P, T = p[a:b], t[a:b]
+    for sl in piece_slices(pieces, len(p)):
+        P, T = p[sl], t[sl]
         if len(P) == 0:
             continue
         d = np.diff(P, axis=0)
@@ -178,8 +178,8 @@ def _machine_samples(p: np.ndarray, t: np.ndarray, step_mm: float, pieces, *, pe
     info = {"period_ms": period_ms, "chord_tol_mm": chord_tol_mm, "max_feed_factor": max_feed_factor,
             "wanted_time_s": float(t.sum()), "n_pieces": int(len(pieces) - 1), "dwell_time_error_max": 0.0,
             "feed_min_mm_min": np.inf, "feed_max_mm_min": 0.0, "chord_error_max_mm": 0.0, "n_interp_samples": 0}
-    for a, b in zip(pieces[:-1], pieces[1:]):
-        P, Tw = p[a:b], t[a:b]
+    for sl in piece_slices(pieces, len(p)):
+        P, Tw = p[sl], t[sl]
         keep = np.ones(len(P), bool)
         if len(P) > 1:  # merge repeated consecutive points (their times add up)
             same = np.all(np.diff(P, axis=0) == 0, axis=1)

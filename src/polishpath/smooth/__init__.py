@@ -27,6 +27,7 @@ import numpy as np
 
 from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
 from ..errors import ParameterError, SmoothingError
+from ..pathops import step_mask
 from ..types import NurbsCurve, Provenance, SurfacePath, ToolPath
 from .interpolate import (
     DEFAULT_INTEGRATOR,
@@ -189,11 +190,7 @@ def curve_deviation(
         along the normal), ``surface_deviation_max`` / ``surface_deviation_mean``
         (mm, or None without surface), ``deviation_samples``.
     """
-    idx = np.arange(len(xyz) - 1)
-    keep = np.ones(len(idx), dtype=bool)
-    for b in pieces[1:-1]:
-        keep[b - 1] = False
-    idx = idx[keep]
+    idx = np.flatnonzero(step_mask(len(xyz), pieces))
     if len(idx) == 0:
         return {"lateral_overshoot_max": 0.0, "normal_offset_max": 0.0, "surface_deviation_max": None,
                 "surface_deviation_mean": None, "deviation_samples": 0}
