@@ -110,6 +110,15 @@ class ExportError(PolishPathError):
     """An output file could not be written."""
 
 
+class InvariantError(RuntimeError):
+    """An internal check failed: a bug in polishpath, not a problem with the input.
+
+    Deliberately *not* a :class:`PolishPathError`: the command line reports it
+    as an internal error asking for a bug report (exit 1), never as the user's
+    mistake. Raise it only where no input can make the check fail.
+    """
+
+
 class MissingDependencyError(PolishPathError, ImportError):
     """An optional dependency is needed for the feature that was asked for."""
 

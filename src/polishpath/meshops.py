@@ -57,7 +57,8 @@ def face_areas(vertices: np.ndarray, faces: np.ndarray, signed: bool = False) ->
         cr = 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
         return cr if signed else np.abs(cr)
     if signed:
-        raise ValueError("signed areas need 2D vertices")
+        raise ParameterError(f"Signed areas need 2-D (V, 2) vertices, got shape {v.shape}.",
+                             "Pass signed=False for 3-D vertices (areas are then unsigned).")
     return 0.5 * np.linalg.norm(np.cross(a, b), axis=1)
 
 

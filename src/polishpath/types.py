@@ -21,16 +21,44 @@ from typing import Any
 import numpy as np
 
 from ._version import __version__
+from .errors import ParameterError
 
 
 def _frozen_array(a, dtype=None, ndim: int | None = None, cols: int | None = None, name: str = "array"):
-    arr = np.array(a, dtype=dtype, copy=True)
+    """A read-only copy of ``a``; :class:`ParameterError` when it cannot be one of the shape asked for."""
+    want = f"(n, {cols})" if cols is not None else ("(n,)" if ndim == 1 else f"{ndim}-D")
+    try:
+        arr = np.array(a, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(
+            f"{name} must be an array of numbers of shape {want}, got {type(a).__name__} ({exc}).",
+            f"Pass a numpy array of shape {want} (or nested lists of equal length).",
+        ) from None
     if ndim is not None and arr.ndim != ndim:
-        raise ValueError(f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
+        raise ParameterError(f"{name} must be an array of shape {want}, got shape {arr.shape}.",
+                             f"Pass an array of shape {want}.")
     if cols is not None and (arr.ndim < 2 or arr.shape[1] != cols):
-        raise ValueError(f"{name} must have shape (n, {cols}), got {arr.shape}")
+        raise ParameterError(f"{name} must have shape (n, {cols}), got {arr.shape}.",
+                             f"Pass an (n, {cols}) array: one row of {cols} values per item.")
     arr.setflags(write=False)
     return arr
+
+
+def _loop(a, name: str) -> np.ndarray:
+    """A boundary loop as an (n >= 3, 2) float64 array of finite points, mm."""
+    try:
+        loop = np.array(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be an (n, 2) array of numbers (mm), got {type(a).__name__} ({exc}).",
+                             "Pass the polygon's corners as an (n, 2) array, n >= 3.") from None
+    if loop.ndim != 2 or loop.shape[1] != 2 or len(loop) < 3:
+        raise ParameterError(f"{name} must be an (n >= 3, 2) array, got shape {loop.shape}.",
+                             "Pass the polygon's corners as an (n, 2) array of (u, v) in mm, n >= 3, "
+                             "not repeating the first corner at the end.")
+    if not np.isfinite(loop).all():
+        raise ParameterError(f"{name} has {int((~np.isfinite(loop)).any(axis=1).sum())} corner(s) with NaN "
+                             "or infinite coordinates.", "Remove or fix those corners.")
+    return loop
 
 
 @dataclass(frozen=True)
@@ -162,16 +190,15 @@ class Region:
     holes: tuple[np.ndarray, ...] = ()
 
     def __post_init__(self):
-        outer = np.array(self.outer, dtype=np.float64)
-        if outer.ndim != 2 or outer.shape[1] != 2 or len(outer) < 3:
-            raise ValueError(f"outer boundary must be an (n>=3, 2) array, got shape {outer.shape}")
-        outer = _orient(outer, ccw=True)
+        outer = _orient(_loop(self.outer, "The outer boundary"), ccw=True)
+        one_array = isinstance(self.holes, np.ndarray) and self.holes.ndim == 2
+        if one_array or isinstance(self.holes, (str, bytes)) or not hasattr(self.holes, "__iter__"):
+            raise ParameterError(f"Region holes must be a sequence of (m, 2) arrays, got {type(self.holes).__name__}"
+                                 + (" (one 2-D array)" if one_array else "") + ".",
+                                 "Pass a tuple of hole polygons, e.g. Region(outer, (hole,)) for one hole.")
         holes = []
-        for h in self.holes:
-            h = np.array(h, dtype=np.float64)
-            if h.ndim != 2 or h.shape[1] != 2 or len(h) < 3:
-                raise ValueError(f"hole must be an (m>=3, 2) array, got shape {h.shape}")
-            holes.append(_frozen_array(_orient(h, ccw=False)))
+        for k, h in enumerate(self.holes):
+            holes.append(_frozen_array(_orient(_loop(h, f"Hole {k}"), ccw=False)))
         object.__setattr__(self, "outer", _frozen_array(outer))
         object.__setattr__(self, "holes", tuple(holes))
 

@@ -13,8 +13,9 @@ from ..errors import ParameterError
 from ..provenance import resolve_seed
 from ..types import PlanarPath, Provenance, Region
 from . import baselines
-from .dwell import DwellGrid, dwell_grid
-from .pseudorandom import pseudorandom_order
+from .checks import check_options, check_point, check_region
+from .dwell import DwellGrid, check_grid, dwell_grid
+from .pseudorandom import PSEUDORANDOM_OPTIONS, pseudorandom_order
 
 
 @dataclass(frozen=True)
@@ -52,21 +53,25 @@ def _on_grid(grid: DwellGrid, order: np.ndarray, pieces: np.ndarray, stats: dict
 
 
 def _pattern_pseudorandom(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    check_options("pseudorandom", options, PSEUDORANDOM_OPTIONS)
     order, pieces, stats = pseudorandom_order(grid, seed=seed, start=start, **options)
     return _on_grid(grid, order, pieces, stats)
 
 
 def _pattern_raster(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    check_options("raster", options, ())
     order, pieces = baselines.clip_grid_sequence(grid, baselines.raster_sequence(grid))
     return _on_grid(grid, order, pieces, {})
 
 
 def _pattern_rectangular(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    check_options("rectangular", options, ())
     order, pieces = baselines.clip_grid_sequence(grid, baselines.rectangular_sequence(grid, grid.ij[start]), chords=False)
     return _on_grid(grid, order, pieces, {})
 
 
 def _pattern_spiral(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
+    check_options("spiral", options, ())
     centre = grid.uv[start]
     rmax = float(np.hypot(*(np.asarray(region.outer) - centre).T).max())
     uv, pieces = baselines.archimedean_spiral(grid, centre, rmax)
@@ -86,7 +91,7 @@ RANDOM_PATTERNS = {"pseudorandom"}
 
 
 def register_pattern(name: str, fn: PatternFn, *, random: bool = False) -> None:
-    """Register a path pattern under ``name`` (a later issue adds maze, fractal, Hilbert ...).
+    """Register a path pattern under ``name`` (the Table 3 peers in :mod:`polishpath.plan.peers` register this way).
 
     Parameters
     ----------
@@ -96,15 +101,27 @@ def register_pattern(name: str, fn: PatternFn, *, random: bool = False) -> None:
         ``fn(grid, region, *, seed, start, **options) -> PatternResult``.
     random : bool
         Whether the pattern uses ``seed`` (recorded in the provenance).
+
+    Raises
+    ------
+    ParameterError
+        ``name`` is not a non-empty string or ``fn`` is not callable.
     """
+    if not isinstance(name, str) or not name.strip():
+        raise ParameterError(f"A pattern name must be a non-empty string, got {name!r}.",
+                             "Pass the name used with plan(..., pattern=name) and --pattern.")
+    if not callable(fn):
+        raise ParameterError(f"Pattern {name!r}: fn must be callable, got {type(fn).__name__}.",
+                             "Pass a function fn(grid, region, *, seed, start, **options) -> PatternResult.")
     PATTERNS[name] = fn
     if random:
         RANDOM_PATTERNS.add(name)
 
 
 def nearest_dwell_point(grid: DwellGrid, point) -> int:
-    """Number of the dwell point nearest ``point`` (2,) mm."""
-    p = np.asarray(point, dtype=np.float64).reshape(2)
+    """Number of the dwell point nearest ``point`` (2,) mm (:class:`ParameterError` for a bad grid or point)."""
+    check_grid(grid)
+    p = check_point(point, "The point")
     return int(np.argmin(np.hypot(grid.uv[:, 0] - p[0], grid.uv[:, 1] - p[1])))
 
 
@@ -132,7 +149,8 @@ def plan(
         One of :data:`PATTERNS`: ``"pseudorandom"`` (default), ``"raster"``,
         ``"spiral"``, ``"rectangular"``.
     seed : int or None
-        Random seed (random patterns); None draws one, which is recorded in
+        Random seed (random patterns), ``0 <= seed < 2**63``; None draws one
+        (see :func:`polishpath.provenance.resolve_seed`), which is recorded in
         the provenance. Same seed, same path, bit for bit.
     start : (2,) array_like, optional
         Start near this point, mm; default the region's area centroid. The path
@@ -159,19 +177,20 @@ def plan(
     Raises
     ------
     ParameterError
-        Unknown pattern, bad spacing / margin / seed.
+        Not a Region; unknown pattern or option; bad spacing / margin / seed / start.
     SpacingTooLargeError
         Fewer than two dwell points fit.
     """
-    if pattern not in PATTERNS:
+    check_region(region)
+    if not isinstance(pattern, str) or pattern not in PATTERNS:
         raise ParameterError(
             f"Unknown path pattern {pattern!r}.", f"Choose one of: {', '.join(sorted(PATTERNS))}."
         )
     seed = resolve_seed(seed)  # checked, or drawn when None: the one place (polishpath.provenance)
+    start_pt = region.centroid if start is None else check_point(start, "The start point")
     t0 = time.perf_counter()
     grid = dwell_grid(region, spacing, margin=margin, origin=origin, rotation=rotation)
     t1 = time.perf_counter()
-    start_pt = region.centroid if start is None else np.asarray(start, dtype=np.float64).reshape(2)
     start_idx = nearest_dwell_point(grid, start_pt)
     res = PATTERNS[pattern](grid, region, seed=seed, start=start_idx, **options)
     t2 = time.perf_counter()

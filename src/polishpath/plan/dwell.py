@@ -30,6 +30,7 @@ import shapely
 from ..errors import ParameterError, SpacingTooLargeError
 from ..pathops import DIRECTION_NAMES, DIRECTION_STEPS
 from ..types import Region
+from .checks import check_number, check_point, check_points, check_region
 
 #: 8 directions in grid index space, counter-clockwise from +i (east).
 #: Direction ``d`` and ``(d + 4) % 8`` are opposite.
@@ -123,6 +124,22 @@ class DwellGrid:
         return np.concatenate(rows) if rows else np.zeros((0, 2), np.int64)
 
 
+def check_grid(grid) -> DwellGrid:
+    """``grid`` when it is a :class:`DwellGrid`, else :class:`~polishpath.errors.ParameterError`."""
+    if not isinstance(grid, DwellGrid):
+        raise ParameterError(
+            f"The dwell grid must be a polishpath.plan.DwellGrid, got {type(grid).__name__}.",
+            "Build one with polishpath.plan.dwell_grid(region, spacing).",
+        )
+    return grid
+
+
+def _frame(spacing, origin, rotation) -> tuple[float, np.ndarray, float]:
+    """Checked grid frame: spacing (> 0, mm), origin (2,) mm, rotation (radians)."""
+    return (check_number(spacing, "spacing", positive=True, unit="mm"), check_point(origin, "origin"),
+            check_number(rotation, "rotation", unit="radians"))
+
+
 def grid_to_uv(ij, spacing: float, origin, rotation: float) -> np.ndarray:
     """Plane positions of grid indices.
 
@@ -142,14 +159,16 @@ def grid_to_uv(ij, spacing: float, origin, rotation: float) -> np.ndarray:
     (k, 2) float64
         Positions, mm.
     """
-    g = np.asarray(ij, dtype=np.float64) * spacing
+    spacing, origin, rotation = _frame(spacing, origin, rotation)
+    g = check_points(ij, "ij") * spacing
     c, s = np.cos(rotation), np.sin(rotation)
     return np.stack([origin[0] + c * g[:, 0] - s * g[:, 1], origin[1] + s * g[:, 0] + c * g[:, 1]], axis=1)
 
 
 def uv_to_grid(uv, spacing: float, origin, rotation: float) -> np.ndarray:
     """Fractional grid coordinates (k, 2) of plane points ``uv`` (k, 2) mm (inverse of :func:`grid_to_uv`)."""
-    p = np.asarray(uv, dtype=np.float64) - np.asarray(origin, dtype=np.float64)
+    spacing, origin, rotation = _frame(spacing, origin, rotation)
+    p = check_points(uv, "uv") - origin
     c, s = np.cos(rotation), np.sin(rotation)
     return np.stack([c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1]], axis=1) / spacing
 
@@ -160,10 +179,13 @@ def region_polygon(region: Region, margin: float = 0.0):
     Raises
     ------
     ParameterError
-        When the region is not a valid polygon (self-intersecting, hole outside).
+        When the region is not a valid polygon (self-intersecting, hole outside),
+        or the margin is not a number >= 0.
     SpacingTooLargeError
         When nothing is left after shrinking by the margin.
     """
+    check_region(region)
+    margin = check_number(margin, "The margin", low=0.0, unit="mm")
     poly = shapely.Polygon(np.asarray(region.outer), [np.asarray(h) for h in region.holes])
     if not poly.is_valid:
         # a flattened mesh boundary may touch itself within round-off: accept the
@@ -316,17 +338,17 @@ def dwell_grid(region: Region, spacing: float, *, margin: float = 0.0, origin=No
     Raises
     ------
     ParameterError
-        Spacing not positive / not finite, negative margin.
+        Not a Region; spacing not a positive number; margin not a number >= 0;
+        origin not two numbers; rotation not a number.
     SpacingTooLargeError
         Fewer than two dwell points fit.
     """
-    spacing = float(spacing)
-    if not np.isfinite(spacing) or spacing <= 0:
-        raise ParameterError(f"Dwell-point spacing must be a positive number of mm, got {spacing!r}.")
-    margin = float(margin)
-    if not np.isfinite(margin) or margin < 0:
-        raise ParameterError(f"Margin must be a non-negative number of mm, got {margin!r}.")
-    rotation = float(rotation)
+    check_region(region)
+    spacing = check_number(spacing, "The dwell-point spacing", positive=True, unit="mm")
+    margin = check_number(margin, "The margin", low=0.0, unit="mm")
+    rotation = check_number(rotation, "The rotation", unit="radians")
+    if origin is not None:
+        origin = check_point(origin, "The origin")
     poly = region_polygon(region, margin)
     rings = _rings(poly)
     if origin is None:

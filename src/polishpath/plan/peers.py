@@ -48,11 +48,12 @@ import shapely
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import minimum_spanning_tree
 
-from ..errors import ParameterError
+from ..errors import InvariantError, ParameterError
 from ..types import Region
 from .api import PATTERNS, PatternResult, register_pattern
 from .baselines import clip_grid_sequence
-from .dwell import DwellGrid, uv_to_grid
+from .checks import check_count, check_index, check_options, check_points, check_seed
+from .dwell import DwellGrid, check_grid, uv_to_grid
 
 __all__ = [
     "PEER_PATTERNS",
@@ -136,9 +137,12 @@ def _outside_figures(grid: DwellGrid, uv: np.ndarray, pieces: np.ndarray) -> dic
     }
 
 
-def _component_order(uv_first: np.ndarray, start_uv: np.ndarray) -> np.ndarray:
-    """Order of components: nearest first-point to ``start_uv`` first (stable)."""
-    return np.argsort(np.hypot(*(uv_first - start_uv).T), kind="stable")
+def _check_call(grid: DwellGrid, seed, start, tree: str | None = None) -> tuple[int, int]:
+    """Checked ``(seed, start)`` of a direct call of a peer pattern (``plan()`` has checked them already)."""
+    check_grid(grid)
+    if tree is not None and tree not in ("kruskal", "dfs"):
+        raise ParameterError(f"Unknown maze generator {tree!r}.", "Use tree='kruskal' or tree='dfs'.")
+    return check_seed(seed), check_index(start, "The start", grid.n)
 
 
 # --------------------------------------------------------------------------------------
@@ -241,7 +245,7 @@ def _spanning_tree(n_cells: int, ea: np.ndarray, eb: np.ndarray, method: str, se
                 deg[x] += 1
         s32 = int(np.random.SeedSequence([int(seed), 2]).generate_state(1)[0])
         return _dfs_maze(cnb, np.ascontiguousarray(order, dtype=np.int64), s32)
-    raise ParameterError(f"Unknown maze generator {method!r}.", "Use tree='kruskal' or tree='dfs'.")
+    raise InvariantError(f"_spanning_tree: unknown maze generator {method!r} (the pattern checks tree first; a bug)")
 
 
 def _stc_path(cells: np.ndarray, phase: np.ndarray, ea: np.ndarray, eb: np.ndarray, kind: np.ndarray,
@@ -311,7 +315,7 @@ def _stc_path(cells: np.ndarray, phase: np.ndarray, ea: np.ndarray, eb: np.ndarr
     y = np.concatenate([B, A])
     o = np.argsort(x, kind="stable")
     if not np.array_equal(np.bincount(x, minlength=4 * C), np.full(4 * C, 2)):  # pragma: no cover - invariant
-        raise RuntimeError("spanning-tree coverage: a node does not have degree 2")
+        raise InvariantError("spanning-tree coverage: a node does not have degree 2 (a bug, whatever the input)")
     nb = np.ascontiguousarray(y[o].reshape(4 * C, 2))
     # start nodes: the fine point nearest the start first, then one node of each cell by distance
     d = np.hypot(*(fine - start_ij).T)
@@ -391,7 +395,14 @@ def pattern_unicursal(grid: DwellGrid, region: Region, *, seed: int, start: int,
         component; ``stats``: ``left_out`` (dwell points in no usable cell, by
         design), ``maze_cells``, ``maze_components``, ``passages``, ``phase``.
     """
-    _no_options("unicursal", options)
+    check_options("unicursal", options, ("tree", "phase"))
+    seed, start = _check_call(grid, seed, start, tree)
+    if phase is not None:
+        ok_phase = np.shape(phase) == (2,) and all(
+            isinstance(x, (int, np.integer)) and not isinstance(x, bool) and x in (0, 1) for x in phase)
+        if not ok_phase:
+            raise ParameterError(f"phase must be two whole numbers, each 0 or 1, got {phase!r}.",
+                                 "Pass e.g. phase=(0, 1), or leave it out to take the best of the four.")
     best = None
     phases = [np.array(phase, dtype=np.int64) % 2] if phase is not None else [
         np.array(p, dtype=np.int64) for p in ((0, 0), (1, 0), (0, 1), (1, 1))]
@@ -408,8 +419,8 @@ def pattern_unicursal(grid: DwellGrid, region: Region, *, seed: int, start: int,
     cells, ea, eb, kind = _cells_and_passages(ok, lo, east, north)
     ij, pieces, n_tree = _stc_path(cells, ph, ea, eb, kind, tree, seed, grid.ij[start])
     order = _lookup(grid, ij)
-    if np.any(order < 0):  # pragma: no cover - cells were checked
-        raise RuntimeError("unicursal: a path point is not a dwell point")
+    if np.any(order < 0):  # pragma: no cover - invariant: every cell's 4 points were checked to be dwell points
+        raise InvariantError("unicursal: a path point is not a dwell point (a bug, whatever the input)")
     stats = {"left_out": int(grid.n - len(order)), "maze_cells": len(cells),
              "maze_components": int(len(pieces) - 1), "passages": n_tree, "phase": [int(x) for x in ph],
              "tree": tree}
@@ -463,7 +474,8 @@ def pattern_maze(grid: DwellGrid, region: Region, *, seed: int, start: int, tree
         ``rows_clipped`` (maze rows with more than two crossings, where part
         of the region was dropped), ``maze_cells``, ``maze_components``.
     """
-    _no_options("maze", options)
+    check_options("maze", options, ("tree",))
+    seed, start = _check_call(grid, seed, start, tree)
     ph = np.zeros(2, dtype=np.int64)
     lo_f = grid.ij.min(axis=0) - 2
     hi_f = grid.ij.max(axis=0) + 2
@@ -508,6 +520,8 @@ def pattern_maze(grid: DwellGrid, region: Region, *, seed: int, start: int, tree
 # --------------------------------------------------------------------------------------
 
 _CORNER = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.int64)  # SW SE NE NW
+#: Largest square of a space-filling curve: 2**15 points a side (4**15, about 1e9 points).
+_MAX_SIDE_LOG2 = 15
 
 
 def _seg_cross(p1, p2, q1, q2) -> bool:
@@ -600,8 +614,14 @@ def fractal_sequence(side_log2: int, seed: int) -> np.ndarray:
     (4**k, 2) int64
         Grid indices ``(i, j)`` in ``[0, 2**k)``, each once, consecutive ones
         8-neighbours, the polyline without self-intersection.
+
+    Raises
+    ------
+    ParameterError
+        k not a whole number from 1 to 15 (4**15 points), or a bad seed.
     """
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 3]))
+    side_log2 = check_count(side_log2, "side_log2", low=1, high=_MAX_SIDE_LOG2)
+    rng = np.random.default_rng(np.random.SeedSequence([check_seed(seed), 3]))
     e0 = int(rng.integers(4))
     x0 = int((e0 + rng.integers(1, 4)) % 4)
     bx = np.zeros(1, np.int64)
@@ -639,8 +659,14 @@ def hilbert_sequence(side_log2: int, symmetry: int = 0) -> np.ndarray:
     -------
     (4**k, 2) int64
         Grid indices in curve order.
+
+    Raises
+    ------
+    ParameterError
+        k not a whole number from 0 to 15, or symmetry not 0..7.
     """
-    n = 2**side_log2
+    n = 2 ** check_count(side_log2, "side_log2", low=0, high=_MAX_SIDE_LOG2)
+    symmetry = check_count(symmetry, "symmetry", low=0, high=7)
     d = np.arange(n * n, dtype=np.int64)
     x = np.zeros_like(d)
     y = np.zeros_like(d)
@@ -672,7 +698,7 @@ def _square_fit(grid: DwellGrid) -> tuple[np.ndarray, int]:
     lo = grid.ij.min(axis=0)
     ext = int((grid.ij.max(axis=0) - lo).max()) + 1
     k = max(1, int(np.ceil(np.log2(max(ext, 2)))))
-    if 4**k > 2**31:
+    if k > _MAX_SIDE_LOG2:
         raise ParameterError(
             f"The region needs a {2**k} x {2**k} square for a space-filling curve, too large.",
             "Use a larger spacing.",
@@ -704,10 +730,23 @@ def bspline_deviation(points: np.ndarray, pieces=None, samples_per_span: int = 1
     dict
         ``dev_max``, ``dev_mean``, ``dev_p95`` (mm), ``share_over_10pct``
         (share of dwell points farther than 10 % of the median step).
+
+    Raises
+    ------
+    ParameterError
+        Points not (N, 2) or (N, 3) finite numbers; pieces not offsets from 0
+        to N, non-decreasing; samples_per_span not a whole number >= 1.
     """
-    P = np.asarray(points, dtype=np.float64)
+    P = check_points(points, "points", cols=(2, 3))
     n = len(P)
-    pieces = np.asarray([0, n] if pieces is None else pieces, dtype=np.int64)
+    samples_per_span = check_count(samples_per_span, "samples_per_span", low=1, high=10_000)
+    pieces = np.asarray([0, n] if pieces is None else pieces)
+    if (pieces.ndim != 1 or len(pieces) < 2 or not np.issubdtype(pieces.dtype, np.integer) or pieces[0] != 0
+            or pieces[-1] != n or np.any(np.diff(pieces) < 0)):
+        raise ParameterError(f"pieces must be whole-number offsets from 0 to {n} (the number of points), "
+                             f"non-decreasing, got {pieces!r}.",
+                             "Pass the path's piece offsets (PlanarPath.pieces), or None for one piece.")
+    pieces = pieces.astype(np.int64)
     devs = []
     steps = []
     t = (np.arange(samples_per_span + 1) / samples_per_span)[:, None]
@@ -766,7 +805,8 @@ def pattern_fractal(grid: DwellGrid, region: Region, *, seed: int, start: int, *
         (mm, the published approximating-spline smoothing, planar) and
         ``smoothing`` (what was measured).
     """
-    _no_options("fractal", options)
+    check_options("fractal", options, ())
+    seed, start = _check_call(grid, seed, start)
     lo, k = _square_fit(grid)
     seq = fractal_sequence(k, seed) + lo
     order, pieces = clip_grid_sequence(grid, seq, chords=False)
@@ -798,20 +838,13 @@ def pattern_hilbert(grid: DwellGrid, region: Region, *, seed: int, start: int, *
         Dwell points only; a new piece wherever the curve leaves the region.
         ``stats``: ``left_out`` (0), ``square_side``, ``symmetry``.
     """
-    _no_options("hilbert", options)
+    check_options("hilbert", options, ())
+    seed, start = _check_call(grid, seed, start)
     lo, k = _square_fit(grid)
     seq = hilbert_sequence(k, int(seed) % 8) + lo
     order, pieces = clip_grid_sequence(grid, seq, chords=False)
     stats = {"left_out": int(grid.n - len(order)), "square_side": int(2**k), "symmetry": int(seed) % 8}
     return PatternResult(grid.uv[order], grid.ij[order], pieces, True, stats)
-
-
-def _no_options(name: str, options: dict) -> None:
-    if options:
-        raise ParameterError(
-            f"Pattern {name!r} takes no option(s) {', '.join(sorted(options))}.",
-            "Remove them (see polishpath.plan.peers for the options each peer pattern accepts).",
-        )
 
 
 #: The peer patterns by name.

@@ -36,6 +36,7 @@ import time
 
 import numpy as np
 
+from ..errors import ParameterError
 from ._component import collect_pieces, plan_component
 from ._steps import (
     N_STATS,
@@ -59,7 +60,11 @@ from ._steps import (
     walk_grid,
     walk_work,
 )
-from .dwell import DwellGrid
+from .checks import check_count, check_index, check_number, check_seed
+from .dwell import DwellGrid, check_grid
+
+#: The options of :func:`pseudorandom_order` that ``plan(..., "pseudorandom", **options)`` passes on.
+PSEUDORANDOM_OPTIONS = ("window", "backtrack", "backtrack_budget", "max_blind", "shortest", "steer", "max_kicks")
 
 
 def pseudorandom_order(
@@ -83,6 +88,7 @@ def pseudorandom_order(
         Dwell points and their adjacency.
     seed : int
         Seed of the random generator (0 <= seed < 2**63); same seed, same path.
+        Each grid component gets its own numba seed drawn from it.
     start : int
         Dwell-point number where the path starts.
     window : int
@@ -119,7 +125,28 @@ def pseudorandom_order(
         ``subwalks``, ``joins``, ``reversed_points`` (total length of the
         reversed tails), ``walk_fraction`` (share of points placed by the walk
         itself), ``turnarounds_by_tenth``, ``seconds``.
+
+    Raises
+    ------
+    ParameterError
+        Not a DwellGrid; seed or start out of range; an option that is not a
+        whole number >= 0 (``backtrack_budget``: a number in [0, 1];
+        ``shortest``: a bool).
     """
+    check_grid(grid)
+    seed = check_seed(seed)
+    start = check_index(start, "The start", grid.n)
+    window = check_count(window, "window")
+    backtrack = check_count(backtrack, "backtrack")
+    backtrack_budget = check_number(backtrack_budget, "backtrack_budget", low=0.0)
+    if backtrack_budget > 1:
+        raise ParameterError(f"backtrack_budget is a fraction of the points, at most 1, got {backtrack_budget!r}.",
+                             "Pass a number in [0, 1] (default 0.05).")
+    max_blind = check_count(max_blind, "max_blind")
+    steer = check_count(steer, "steer", high=2**20)
+    max_kicks = check_count(max_kicks, "max_kicks")
+    if not isinstance(shortest, (bool, np.bool_)):
+        raise ParameterError(f"shortest must be True or False, got {shortest!r}.", "Pass a bool.")
     t0 = time.perf_counter()
     H, W = (int(x) for x in grid.dense_shape)
     nodes = np.ascontiguousarray(grid.dense_id, dtype=np.int64)
@@ -133,11 +160,11 @@ def pseudorandom_order(
     d_start = np.hypot(*(grid.uv - grid.uv[start]).T)
     comp_dist = np.minimum.reduceat(d_start[sort], bounds[:-1]) if ncomp else np.zeros(0)
     comp_order = np.argsort(comp_dist, kind="stable")
-    seeds = np.random.SeedSequence(int(seed)).generate_state(max(ncomp, 1), dtype=np.uint32)
+    seeds = np.random.SeedSequence(seed).generate_state(max(ncomp, 1), dtype=np.uint32)
 
     g = walk_grid(adj, W, lab_dense)
     work = walk_work(H * W, int(np.diff(bounds).max()) if ncomp else 0)
-    options = WalkOptions(int(window), int(backtrack), 0, int(max_blind), bool(shortest), int(steer), int(max_kicks))
+    options = WalkOptions(window, backtrack, 0, max_blind, bool(shortest), steer, max_kicks)
 
     tot = np.zeros(N_STATS, dtype=np.int64)
     orders, piece_offs = [], [np.zeros(1, dtype=np.int64)]
