@@ -13,7 +13,7 @@ from ..errors import ParameterError
 from ..provenance import resolve_seed
 from ..types import PlanarPath, Provenance, Region
 from . import baselines
-from .checks import check_options, check_point, check_region
+from .checks import check_index, check_options, check_point, check_region, check_seed
 from .dwell import DwellGrid, check_grid, dwell_grid
 from .pseudorandom import PSEUDORANDOM_OPTIONS, pseudorandom_order
 
@@ -46,6 +46,18 @@ class PatternResult:
 #: A pattern: ``fn(grid, region, *, seed, start) -> PatternResult`` where
 #: ``start`` is the dwell-point number to begin with.
 PatternFn = Callable[..., PatternResult]
+
+
+def check_pattern_call(grid: DwellGrid, seed, start) -> tuple[int, int]:
+    """Checked ``(seed, start)`` of a pattern function called directly (:func:`plan` has checked them already).
+
+    Raises
+    ------
+    ParameterError
+        Not a DwellGrid, a bad seed, or ``start`` not a dwell-point number.
+    """
+    check_grid(grid)
+    return check_seed(seed), check_index(start, "The start", grid.n)
 
 
 def _on_grid(grid: DwellGrid, order: np.ndarray, pieces: np.ndarray, stats: dict) -> PatternResult:
