@@ -11,10 +11,13 @@ is two diagonals of the same grid cell. ``diag[c]`` records which diagonal of
 cell ``c`` (its lower-left corner's id) is in use: 0 none, 1 "/", 2 "\\".
 A diagonal step is allowed only when the other diagonal of its cell is free.
 
-The kernels of ``_walk`` (the walk) and ``_endgame`` (the end-game) share
-three structures, built here in Python and passed to numba as named tuples
-(unpacked into locals at the top of each kernel, so the loops run as fast as
-with separate arguments; ``benchmarks/bench_plan_walk.py`` measures it):
+The kernels that run once per component or sub-walk (``_component``, the walk
+of ``_walk``, the end-game driver of ``_endgame``) share three structures,
+built here in Python and passed to numba as named tuples, unpacked into locals
+at the top of each kernel so that their loops run as fast as with separate
+arguments. The end-game's helpers called once per point take the arrays one by
+one: given the tuples, the end-game ran about a third slower
+(``benchmarks/bench_plan_walk.py --endgame``).
 
 * :class:`WalkGrid`: the region's grid (read only);
 * :class:`WalkOptions`: the planner's options for one component;

@@ -159,7 +159,8 @@ def plan(
         Dwell-point spacing, mm.
     pattern : str
         One of :data:`PATTERNS`: ``"pseudorandom"`` (default), ``"raster"``,
-        ``"spiral"``, ``"rectangular"``.
+        ``"spiral"``, ``"rectangular"``, and the Table 3 peers ``"unicursal"``,
+        ``"maze"``, ``"fractal"``, ``"hilbert"`` (:mod:`polishpath.plan.peers`).
     seed : int or None
         Random seed (random patterns), ``0 <= seed < 2**63``; None draws one
         (see :func:`polishpath.provenance.resolve_seed`), which is recorded in
@@ -177,7 +178,9 @@ def plan(
         Passed to the pattern (pseudo-random: ``window``, ``backtrack``,
         ``backtrack_budget``, ``max_blind``, ``shortest``, ``steer``,
         ``max_kicks``, see
-        :func:`~polishpath.plan.pseudorandom.pseudorandom_order`).
+        :func:`~polishpath.plan.pseudorandom.pseudorandom_order`; unicursal:
+        ``tree``, ``phase``; maze: ``tree``; the others take none). An option
+        the pattern does not take is refused.
 
     Returns
     -------
