@@ -21,9 +21,12 @@ install: venv
 install-test: venv
 	$(BIN)/python -m pip install -q -e '.[test]'
 
-# Debian packages the browser test needs (headless chromium); skipped when present or not root.
+# Debian packages the tests need: headless chromium for the browser test (skipped when present or
+# not root), and LinuxCNC's standalone interpreter rs274 for tests/test_linuxcnc.py (fetched and
+# unpacked into a cache folder, not installed; see scripts/get-linuxcnc.sh).
 system-deps:
 	@bash scripts/install-system-deps.sh
+	@bash scripts/get-linuxcnc.sh
 
 demo: install
 	$(BIN)/polishpath plan hemisphere --spacing 0.5 --seed 1 -o $(OUT)
