@@ -100,8 +100,9 @@ def hemisphere_end_to_end(triangles: int, spacing: float = 0.5, seed: int = 1) -
         print(f"  skipped: a stage is not available yet ({exc})")
         return
     import tempfile
+    from pathlib import Path
 
-    from polishpath.export import write_outputs
+    from polishpath.export import write_gcode, write_path_csv, write_xyz
     from polishpath.mapping import map_to_surface
 
     surf = load_surface(f"hemisphere:R=30,triangles={triangles}")
@@ -122,9 +123,12 @@ def hemisphere_end_to_end(triangles: int, spacing: float = 0.5, seed: int = 1) -
           f" {st['dwell_time_error_max']:.3f}; density cv {sp.stats['density_cv']:.3f}")
     with tempfile.TemporaryDirectory() as d:
         t = time.perf_counter()
-        out = write_outputs(d, tp, header={"surface": surf.source, "spacing": spacing, "seed": seed})
-        sizes = ", ".join(f"{p.name} {p.stat().st_size / 1e6:.1f} MB" for p in out.values())
-        print(f"  write_outputs {time.perf_counter() - t:.2f} s: {sizes}")
+        out = [Path(d) / n for n in ("path.csv", "toolpath.xyz", "toolpath.nc")]
+        write_path_csv(tp, out[0])
+        write_xyz(tp, out[1])
+        write_gcode(tp, out[2], header={"surface": surf.source, "spacing": spacing, "seed": seed})
+        sizes = ", ".join(f"{p.name} {p.stat().st_size / 1e6:.1f} MB" for p in out)
+        print(f"  writers {time.perf_counter() - t:.2f} s: {sizes}")
 
 
 if __name__ == "__main__":

@@ -43,7 +43,8 @@ class Canon:
     ``calls``: every canonical call, (name, raw argument text), in order.
     ``feeds``: (K, 3) end points of STRAIGHT_FEED moves, mm; ``feed_rate``: (K,)
     the F in force for each (mm/min, or 1/min in inverse time); ``inverse_time``:
-    (K,) bool, G93 in force; ``start``: (K, 3) where each feed move began.
+    (K,) bool, G93 in force; ``starts``: (K, 3) where each feed move began;
+    ``group``: (K,) index of the run of feed moves between rapid moves.
     """
 
     returncode: int
@@ -53,6 +54,7 @@ class Canon:
     starts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     feed_rate: np.ndarray = field(default_factory=lambda: np.zeros(0))
     inverse_time: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    group: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def ok(self) -> bool:
@@ -74,10 +76,14 @@ class Canon:
         return out
 
     def segment_times(self) -> np.ndarray:
-        """(K,) seconds per STRAIGHT_FEED: 60 / F in inverse time, else 60 * length / F."""
+        """(K,) seconds per STRAIGHT_FEED: 60 x length / rate.
+
+        In inverse time (G93) rs274 itself turns each block's F (1/min) into the
+        equivalent rate, length x F in mm/min, so one formula serves both modes.
+        """
         length = np.linalg.norm(self.feeds - self.starts, axis=1)
         with np.errstate(divide="ignore"):
-            return np.where(self.inverse_time, 60.0 / self.feed_rate, 60.0 * length / self.feed_rate)
+            return 60.0 * length / self.feed_rate
 
 
 def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
@@ -88,7 +94,8 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
             calls.append((m.group(1), m.group(2)))
     pos = np.zeros(3)
     rate, inv = 0.0, False
-    ends, starts, rates, invs = [], [], [], []
+    ends, starts, rates, invs, groups = [], [], [], [], []
+    g, last = -1, "STRAIGHT_TRAVERSE"
     for name, a in calls:
         if name == "COMMENT" and "feed mode set to" in a:
             inv = "inverse time" in a
@@ -97,15 +104,20 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
         elif name in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE"):
             p = np.array([float(v) for v in a.split(",")[:3]])
             if name == "STRAIGHT_FEED":
+                if last == "STRAIGHT_TRAVERSE":
+                    g += 1
+                groups.append(g)
                 starts.append(pos)
                 ends.append(p)
                 rates.append(rate)
                 invs.append(inv)
             pos = p
+            last = name
     c = Canon(returncode, stderr, calls)
     if ends:
         c.feeds, c.starts = np.array(ends), np.array(starts)
         c.feed_rate, c.inverse_time = np.array(rates), np.array(invs, bool)
+        c.group = np.array(groups, np.int64)
     return c
 
 

@@ -13,7 +13,10 @@ import sys
 import numpy as np
 import pytest
 
-from polishpath.export import read_xyz
+from conftest import shared_mesh_path
+from polishpath.export import read_xyz, write_gcode
+from polishpath.export.post import planned_segment_times
+from polishpath.smooth import sample_normals
 from rs274_helpers import parse_canon, rs274  # noqa: F401  (fixture)
 
 RES = 0.5e-4 + 1e-9  # the file's and the canonical output's 4-decimal resolution, mm
@@ -38,7 +41,7 @@ def test_canonical_parser_reads_moves_feeds_and_modes():
         "    2 N..... STRAIGHT_TRAVERSE(0.0000, 0.0000, 10.0000, 0.0000, 0.0000, 0.0000)",
         "    3 N..... STRAIGHT_FEED(3.0000, 4.0000, 10.0000, 0.0000, 0.0000, 0.0000)",
         '    4 N..... COMMENT("interpreter: feed mode set to inverse time")',
-        "    5 N..... SET_FEED_RATE(6000.0000)",
+        "    5 N..... SET_FEED_RATE(60.0000)",
         "    6 N..... STRAIGHT_FEED(3.0000, 4.0000, 11.0000, 0.0000, 0.0000, 0.0000)",
     ])
     c = parse_canon(text)
@@ -46,9 +49,21 @@ def test_canonical_parser_reads_moves_feeds_and_modes():
     assert np.array_equal(c.feeds, [[3, 4, 10], [3, 4, 11]])
     assert np.array_equal(c.starts, [[0, 0, 10], [3, 4, 10]])
     assert list(c.inverse_time) == [False, True]
-    assert np.allclose(c.segment_times(), [60 * 5 / 600, 60 / 6000])
+    assert np.allclose(c.segment_times(), [60 * 5 / 600, 60 * 1 / 60])
     bad = parse_canon("", 1, "executing\nUnknown g code used\nG06.2 P4")
     assert not bad.ok and bad.errors[0] == "Unknown g code used"
+
+
+def _path_moves(canon):
+    """Per run of feed moves (one piece): the path points (approach end = first sample ... last sample)
+    and the times of the moves between them; the approach and retract moves themselves left out."""
+    pts, times = [], []
+    t = canon.segment_times()
+    for g in np.unique(canon.group):
+        idx = np.flatnonzero(canon.group == g)
+        pts.append(canon.feeds[idx[:-1]])  # the last move of a run is the retract
+        times.append(t[idx[1:-1]])
+    return pts, times
 
 
 def test_rs274_reads_the_linear_gcode_of_a_small_job(rs274, small_job):
@@ -56,5 +71,96 @@ def test_rs274_reads_the_linear_gcode_of_a_small_job(rs274, small_job):
     assert canon.ok, canon.errors[:5]
     samples = read_xyz(small_job / "toolpath.xyz")
     # every machine sample is the end point of one feed move, in order, to the file's resolution
-    assert canon.feeds.shape == samples.shape
-    assert np.abs(canon.feeds - samples).max() <= RES
+    pts, _ = _path_moves(canon)
+    assert np.vstack(pts).shape == samples.shape
+    assert np.abs(np.vstack(pts) - samples).max() <= RES
+
+
+@pytest.fixture(scope="module", params=["hemisphere", "lilium"])
+def job(request):
+    from polishpath.pipeline import run
+
+    if request.param == "hemisphere":
+        return run(surface="hemisphere:R=12,triangles=3000", spacing=1.5, seed=11, report=False)
+    mesh = shared_mesh_path("lilium.obj")
+    return run(surface=str(mesh), scale=20.0, spacing=1.5, seed=3, report=False)
+
+
+@pytest.mark.parametrize("radius", [0.0, 5.0])
+def test_rs274_runs_every_move_with_its_planned_time(rs274, job, radius, tmp_path):
+    tp = job.tool_path
+    f = tmp_path / "toolpath.nc"
+    info = write_gcode(tp, f, tool_radius=radius)
+    assert info["feed_mode"] == ("inverse-time" if radius else "per-minute")
+    canon = rs274(f)
+    assert canon.ok, canon.errors[:5]
+    driven = tp.samples + radius * sample_normals(tp)  # tool centre (or contact point)
+    off = tp.stats["sample_pieces"]
+    pts, times = _path_moves(canon)
+    assert len(pts) == len(off) - 1
+    dt = planned_segment_times(tp)
+    for k, (a, b) in enumerate(zip(off[:-1], off[1:])):
+        # STRAIGHT_FEED end points are the driven points, to the file's resolution ...
+        assert pts[k].shape == (b - a, 3)
+        assert np.abs(pts[k] - driven[a:b]).max() <= RES
+        # ... and each move takes its planned time (from the contact-point schedule) to 0.1 %
+        assert np.abs(times[k] / dt[a + 1 : b] - 1).max() <= 1e-3
+    assert canon.segment_times().sum() == pytest.approx(info["machining_time_s"], rel=1e-4)
+
+
+def test_rs274_sees_blending_spindle_slurry_approach_and_retract_in_order(rs274, job, tmp_path):
+    tp = job.tool_path
+    f = tmp_path / "toolpath.nc"
+    write_gcode(tp, f, tool_radius=5.0)
+    canon = rs274(f)
+    names = canon.names()
+    first_move = names.index("STRAIGHT_TRAVERSE")
+    mcm = [a for n, a in canon.calls if n == "SET_MOTION_CONTROL_MODE"]
+    assert mcm == ["CANON_CONTINUOUS, 0.001000"]  # G64 P<chord tol>, the smoothing stage's 1 um
+    assert names.index("SET_MOTION_CONTROL_MODE") < first_move
+    assert canon.args("SET_SPINDLE_SPEED") == [[0, 230]]
+    assert names.index("SET_SPINDLE_SPEED") < names.index("START_SPINDLE_CLOCKWISE") < first_move
+    assert names.index("FLOOD_ON") < first_move
+    last_feed = len(names) - 1 - names[::-1].index("STRAIGHT_FEED")
+    assert names.index("STOP_SPINDLE_TURNING", last_feed) > last_feed
+    assert names.index("FLOOD_OFF", last_feed) > last_feed and "PROGRAM_END" in names[last_feed:]
+    # per piece: rapid up to the clearance plane, across, down to the approach point; feed along the
+    # normal onto the part at the approach feed; ... ; feed back along the normal; rapid up
+    normals = sample_normals(tp)
+    off = tp.stats["sample_pieces"]
+    moves = [(n, np.array([float(v) for v in a.split(",")[:3]])) for n, a in canon.calls
+             if n in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE")]
+    kinds = "".join("F" if n == "STRAIGHT_FEED" else "T" for n, _ in moves)
+    runs = kinds.split("T")
+    assert kinds.startswith("TTT") and kinds.endswith("FT") and kinds.count("TTT") == len(off) - 1
+    assert [len(r) for r in runs if r] == [b - a + 1 for a, b in zip(off[:-1], off[1:])]
+    safe = moves[0][1][2]
+    pos = 0
+    for a, b in zip(off[:-1], off[1:]):
+        up, across, down = (m[1] for m in moves[pos : pos + 3])
+        assert up[2] == safe and across[2] == safe and down[2] < safe
+        approach_end = moves[pos + 3][1]
+        d = approach_end - down
+        assert np.linalg.norm(d) == pytest.approx(2.0, abs=2e-4)
+        assert np.abs(-d / np.linalg.norm(d) - normals[a]).max() < 1e-3  # down along the normal
+        retract_end = moves[pos + 3 + (b - a)][1]
+        r = retract_end - moves[pos + 2 + (b - a)][1]
+        assert np.abs(r / np.linalg.norm(r) - normals[b - 1]).max() < 1e-3  # back out along the normal
+        assert moves[pos + 4 + (b - a)][0] == "STRAIGHT_TRAVERSE" and moves[pos + 4 + (b - a)][1][2] == safe
+        pos += 5 + (b - a)
+    rates = canon.args("SET_FEED_RATE")
+    assert [300.0] in rates  # the approach feed
+
+
+def test_linuxcnc_is_refused_nurbs_which_rs274_cannot_read(rs274, small_job, tmp_path):
+    r = subprocess.run([sys.executable, "-m", "polishpath", "plan", "hemisphere:R=12,triangles=700", "--spacing", "2",
+                        "--seed", "1", "--gcode", "nurbs", "--no-report", "-q", "-o", str(tmp_path / "o")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "LinuxCNC cannot run G06.2" in r.stderr and "--post fanuc" in r.stderr
+    assert "Traceback" not in r.stderr
+    out = _plan(tmp_path / "fanuc", "hemisphere:R=12,triangles=700", "--spacing", "2", "--seed", "1", "--post", "fanuc")
+    text = (out / "toolpath.nc").read_text()
+    assert "\nG06.2 P4 " in text and "FANUC 15i/30i-CLASS" in text
+    # why: LinuxCNC's interpreter stops at the first G06.2 block
+    canon = rs274(out / "toolpath.nc")
+    assert not canon.ok and any("Unknown g code" in e for e in canon.errors)

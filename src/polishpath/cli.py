@@ -583,7 +583,11 @@ def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> Non
     for key in ("coverage", "directions_used", "crossings"):
         if key in m:
             typer.echo(f"  {key:28s} {m[key]}")
-    typer.echo(f"wrote {len(written)} files to {out_dir}/")
+    pr = summary.get("post")
+    if pr:
+        typer.echo(f"  machine file: {pr['file']} ({pr['post']}, {pr['mode']}, {pr['feed_mode']} feed, "
+                   f"{pr['coordinates']}), machining time {pr['machining_time_s'] / 60:.1f} min")
+    typer.echo(f"wrote {len(set(written.values()))} files to {out_dir}/")
     if "report" in written:
         typer.echo(f"report: {written['report']}")
 

@@ -48,6 +48,7 @@ class Job:
     planar_spacing: float
     timings: dict[str, float] = field(default_factory=dict)
     plan_metrics: dict[str, Any] = field(default_factory=dict)
+    program: dict[str, Any] = field(default_factory=dict)  # what the post wrote (Job.save)
 
     @property
     def seed(self) -> int | None:
@@ -98,6 +99,9 @@ class Job:
             ),
             "timings_s": self.timings,
         }
+        if self.program:
+            s["post"] = self.program
+            s["machining_time_s"] = self.program.get("machining_time_s")
         return jsonable(s)
 
     def save(self, out_dir: str | Path, *, report: bool | None = None) -> dict[str, Path]:
@@ -106,8 +110,8 @@ class Job:
         Returns
         -------
         dict of str -> Path
-            What was written: ``path_csv``, ``toolpath_xyz``, ``gcode``,
-            ``flat_obj``, the run-folder files ``arrays``, ``summary``, ``job``
+            What was written: ``program`` (the post's file), ``path_csv``, ``toolpath_xyz``,
+            ``gcode`` (G-code posts), ``flat_obj``, the run-folder files ``arrays``, ``summary``, ``job``
             (:func:`polishpath.runfolder.write_run`), and ``report`` when made.
         """
         from . import export
@@ -119,13 +123,18 @@ class Job:
         written: dict[str, Path] = {}
         header = self.gcode_header()
         with progress.stage("writing machine files", self.timings, "write"):
-            export.write_path_csv(self.tool_path, out / "path.csv")
+            cfg = self.config
+            self.program = export.write_program(self.tool_path, out, post=cfg.post, settings=cfg.post_settings,
+                                                mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header)
+            written["program"] = Path(self.program["path"])
+            if self.program["file"] != "path.csv":
+                export.write_path_csv(self.tool_path, out / "path.csv")
             written["path_csv"] = out / "path.csv"
-            export.write_xyz(self.tool_path, out / "toolpath.xyz")
+            if self.program["file"] != "toolpath.xyz":
+                export.write_xyz(self.tool_path, out / "toolpath.xyz")
             written["toolpath_xyz"] = out / "toolpath.xyz"
-            export.write_gcode(self.tool_path, out / "toolpath.nc", mode=self.config.gcode,
-                               tool_radius=self.config.tool_radius, header=header)
-            written["gcode"] = out / "toolpath.nc"
+            if self.program["file"] == "toolpath.nc":
+                written["gcode"] = out / "toolpath.nc"
             with atomic_open(out / "flat.obj", "w") as fh:
                 save_obj(self.flattening, fh)
             written["flat_obj"] = out / "flat.obj"
@@ -152,7 +161,8 @@ class Job:
             "planar_spacing_mm": round(self.planar_spacing, 6),
             "seed": self.seed,
             "dwell_points": self.planar.n_points,
-            **{k: v for k, v in self.config.to_dict().items() if k not in ("surface", "seed") and v is not None},
+            **{k: v for k, v in self.config.to_dict().items()
+               if k not in ("surface", "seed", "post_settings") and v is not None},
         }
 
 

@@ -1,0 +1,58 @@
+"""Post-processors: the file each controller runs, from one base (``base.py``) and one small class per controller.
+
+========== ==================================================================
+``--post``  writes
+========== ==================================================================
+linuxcnc   ``toolpath.nc``: LinuxCNC G-code (default), G01 moves, G64 blending,
+           G93 inverse-time feed with a tool-radius offset
+fanuc      ``toolpath.nc``: Fanuc 15i/30i-class G06.2 NURBS blocks (or G01)
+xyz        ``toolpath.xyz``: the paper's constant-period X Y Z file
+csv        ``path.csv``: dwell points with their times
+========== ==================================================================
+
+:func:`get_post` returns a post with its settings (:class:`PostSettings`, also
+from a ``[post]`` table in job.toml); :func:`write_program` writes its file into
+a run folder. See ``docs/machine-output.md``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ...errors import ParameterError
+from ...types import ToolPath
+from .base import GcodePost, Piece, PostProcessor, PostSettings, offset_along_normals, planned_segment_times
+from .fanuc import FanucPost
+from .files import CsvPost, XyzPost
+from .linuxcnc import LinuxCNCPost
+
+__all__ = ["POSTS", "DEFAULT_POST", "get_post", "write_program", "post_help", "PostProcessor", "GcodePost",
+           "PostSettings", "Piece", "LinuxCNCPost", "FanucPost", "XyzPost", "CsvPost", "offset_along_normals",
+           "planned_segment_times"]
+
+POSTS: dict[str, type[PostProcessor]] = {p.name: p for p in (LinuxCNCPost, FanucPost, XyzPost, CsvPost)}
+DEFAULT_POST = "linuxcnc"
+
+
+def get_post(name: str = DEFAULT_POST, settings: PostSettings | dict[str, Any] | None = None) -> PostProcessor:
+    """The post-processor registered as ``name``, with ``settings`` over its defaults."""
+    cls = POSTS.get(name)
+    if cls is None:
+        raise ParameterError(f"Unknown post-processor {name!r}.", f"Use one of: {', '.join(POSTS)}.")
+    return cls(settings)
+
+
+def post_help() -> str:
+    """One line per post, for ``--help``."""
+    return "; ".join(f"{n}: {c.description}" for n, c in POSTS.items())
+
+
+def write_program(tool_path: ToolPath, out_dir: str | Path, *, post: str = DEFAULT_POST,
+                  settings: dict[str, Any] | None = None, mode: str | None = None, tool_radius: float = 0.0,
+                  header: dict | None = None) -> dict[str, Any]:
+    """Write the post's file into ``out_dir`` (atomically); returns what it wrote (see :meth:`PostProcessor.write`)."""
+    p = get_post(post, settings)
+    info = p.write(tool_path, Path(out_dir) / p.filename, mode=mode, tool_radius=tool_radius, header=header)
+    info["path"] = str(Path(out_dir) / p.filename)
+    return info

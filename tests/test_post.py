@@ -1,0 +1,381 @@
+"""Post-processors (issue 16, items 1 and 2): registry, settings, the program skeleton, feeds with a tool offset.
+
+LinuxCNC's own interpreter reads these files in test_linuxcnc.py; here the files
+are parsed by two third-party G-code parsers and by a Fanuc-format check written
+from the Fanuc G06.2 NURBS interpolation format.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+
+import numpy as np
+import pytest
+
+from polishpath._version import __version__ as VERSION
+from polishpath.errors import ParameterError
+from polishpath.export import POSTS, get_post, read_path_csv, read_xyz, write_gcode, write_path_csv, write_program, write_xyz
+from polishpath.export.post import PostSettings, planned_segment_times, post_help
+from polishpath.mapping import map_to_surface
+from polishpath.smooth import evaluate, sample_normals, smooth
+from polishpath.types import NurbsCurve
+from test_mapping_helpers import serpentine_path, spherical_cap
+
+
+@pytest.fixture(scope="module")
+def tool_path():
+    cap = spherical_cap(n_r=10, n_phi=36)
+    path = serpentine_path(cap, 2.0, seed=5)
+    n = path.n_points
+    # two pieces, so the lift between them is written too
+    path = serpentine_path(cap, 2.0, seed=5, pieces_at=[n // 2])
+    sp = map_to_surface(cap, path)
+    return smooth(sp, feed_mm_min=3000.0, period_ms=8.0, chord_tol_mm=5e-3)
+
+
+def _lines(text: str) -> list[str]:
+    return [ln for ln in text.splitlines() if ln and not ln.startswith("(") and ln != "%"]
+
+
+def _gcode(tool_path, **kw) -> str:
+    buf = io.StringIO()
+    write_gcode(tool_path, buf, **kw)
+    return buf.getvalue()
+
+
+def _g01(text: str):
+    """(X Y Z) targets and F of every G01 block, by gcodeparser."""
+    from gcodeparser import parse_gcode_lines
+
+    rows = [ln.params for ln in parse_gcode_lines(text) if ln.command == ("G", 1)]
+    return np.array([(p["X"], p["Y"], p["Z"]) for p in rows]), np.array([p["F"] for p in rows])
+
+
+def _pieces_of(tool_path):
+    off = np.asarray(tool_path.stats["sample_pieces"])
+    return list(zip(off[:-1], off[1:]))
+
+
+# --------------------------------------------------------------------------- registry and settings
+
+
+def test_registry_lists_every_post_with_its_help():
+    assert set(POSTS) == {"linuxcnc", "fanuc", "xyz", "csv"}
+    h = post_help()
+    assert "Fanuc 15i/30i" in h and "NURBS" in h and "LinuxCNC" in h
+    with pytest.raises(ParameterError, match="linuxcnc, fanuc, xyz, csv"):
+        get_post("heidenhain")
+    assert get_post().name == "linuxcnc" and get_post("fanuc").modes[0] == "nurbs"
+
+
+@pytest.mark.parametrize("bad, words", [
+    ({"spindle": 3}, "unknown post setting"),
+    ({"clearance_mm": -1.0}, "clearance_mm must be a number >= 0"),
+    ({"approach_feed_mm_min": 0.0}, "approach_feed_mm_min must be > 0"),
+    ({"feed_mode": "fast"}, "feed_mode must be one of auto, inverse-time, per-minute"),
+    ({"decimals": 12}, "decimals must be a whole number"),
+    ({"program_number": 0}, "program_number"),
+    ({"preamble": 5}, "preamble must be text"),
+])
+def test_bad_settings_are_refused_by_name(bad, words):
+    with pytest.raises(ParameterError, match=words):
+        get_post("linuxcnc", bad)
+
+
+def test_settings_override_the_controller_defaults(tool_path):
+    s = get_post("linuxcnc", {"spindle_rpm": 120, "coolant_on": "M7", "clearance_mm": 9.0}).settings
+    assert s.spindle_rpm == 120 and s.blending == "G64 P{tol}" and s.safety_block == "G40 G49 G80 G54"
+    assert get_post("fanuc").settings.blending == "" and get_post("fanuc").settings.program_number == 1
+    text = _gcode(tool_path, spindle_rpm=120, coolant_on="M7", clearance_mm=9.0)
+    assert "M3 S120\n" in text and "M7\n" in text and "M8" not in text
+    none = _gcode(tool_path, spindle_rpm=0, coolant_on="", comments=False)
+    assert "\nM3 S" not in none and "\nM8\n" not in none and "(" not in none
+    assert set(PostSettings.names()) >= {"preamble", "safety_block", "spindle_rpm", "clearance_mm", "feed_mode"}
+
+
+# --------------------------------------------------------------------------- linuxcnc skeleton
+
+
+def test_linuxcnc_program_in_order(tool_path):
+    text = _gcode(tool_path, header={"surface": "cap", "seed": 5, "params": {"pattern": "raster"}})
+    assert text.startswith("%\n") and text.endswith("M5 M9\nM30\n%\n")
+    assert f"polishpath {VERSION}" in text and "(seed: 5)" in text and "params.pattern: raster" in text
+    assert "COORDINATES: TOOL-PART CONTACT POINT" in text and "FEED: G94" in text
+    body = _lines(text)
+    assert body[:5] == ["G21 G90 G17 G94", "G40 G49 G80 G54", "G64 P0.005000", "M3 S230", "M8"]
+    pieces = _pieces_of(tool_path)
+    normals = sample_normals(tool_path)
+    i = 5
+    for a, b in pieces:
+        # clearance plane, above the approach point, down to it, then along the normal onto the part
+        assert body[i].startswith("G00 Z") and body[i + 1].startswith("G00 X") and body[i + 2].startswith("G00 Z")
+        safe = float(body[i][5:])
+        q0 = np.array([float(v[1:]) for v in body[i + 1].split()[1:]] + [float(body[i + 2][5:])])
+        p0 = tool_path.samples[a]
+        assert np.abs(q0 - (p0 + 2.0 * normals[a])).max() <= 1e-4
+        assert body[i + 3].endswith("F300.000")
+        i += 4 + (b - a - 1)
+        # retract along the end normal at the approach feed, back to the clearance plane
+        q1 = np.array([float(v[1:]) for v in body[i].split()[1:4]])
+        assert np.abs(q1 - (tool_path.samples[b - 1] + 2.0 * normals[b - 1])).max() <= 1e-4
+        assert body[i].endswith("F300.000") and body[i + 1] == f"G00 Z{safe:.4f}"
+        assert safe >= tool_path.samples[:, 2].max() + 5.0 - 1e-9
+        i += 2
+    assert body[i:] == ["M5 M9", "M30"]
+
+
+def test_linuxcnc_moves_are_the_samples_with_their_planned_times(tool_path):
+    text = _gcode(tool_path)
+    pts, feed = _g01(text)
+    dt = planned_segment_times(tool_path)
+    k = 0
+    for a, b in _pieces_of(tool_path):
+        assert np.abs(pts[k] - tool_path.samples[a]).max() <= 0.5e-4 + 1e-12  # the approach ends on the first sample
+        seg = pts[k + 1 : k + (b - a)]
+        assert np.abs(seg - tool_path.samples[a + 1 : b]).max() <= 0.5e-4 + 1e-12
+        # G94: the time of each written block, length / F, is the planned one
+        prev = pts[k : k + (b - a) - 1]
+        t = np.linalg.norm(seg - prev, axis=1) * 60.0 / feed[k + 1 : k + (b - a)]
+        assert np.allclose(t, dt[a + 1 : b], rtol=1e-3)
+        k += (b - a) + 1  # + the retract
+
+
+def test_tool_radius_writes_the_centre_with_inverse_time_feeds(tool_path):
+    r = 3.0
+    text = _gcode(tool_path, tool_radius=r)
+    assert "G93\n" in text and "COORDINATES: TOOL CENTRE" in text and "3.0 mm" in text and "FEED: G93" in text
+    pts, feed = _g01(text)
+    normals = sample_normals(tool_path)
+    dt = planned_segment_times(tool_path)
+    k = 0
+    for a, b in _pieces_of(tool_path):
+        seg = pts[k + 1 : k + (b - a)]
+        centre = tool_path.samples[a + 1 : b] + r * normals[a + 1 : b]
+        assert np.abs(seg - centre).max() <= 0.5e-4 + 1e-12
+        assert np.abs(np.linalg.norm(seg - tool_path.samples[a + 1 : b], axis=1) - r).max() <= 1e-4
+        # inverse time: F = 1 / minutes of the block, the planned time whatever the offset
+        assert np.allclose(60.0 / feed[k + 1 : k + (b - a)], dt[a + 1 : b], rtol=1e-6)
+        k += (b - a) + 1
+    # G93 only around the path moves: the approach and retract are in mm/min
+    body = _lines(text)
+    g93 = [i for i, ln in enumerate(body) if ln == "G93"]
+    assert all(body[i - 1].endswith("F300.000") and body[i - 1].startswith("G01") for i in g93)
+
+
+def test_per_minute_feed_is_rescaled_to_the_driven_point(tool_path):
+    r = 3.0
+    text = _gcode(tool_path, tool_radius=r, feed_mode="per-minute")
+    assert "G93" not in text
+    pts, feed = _g01(text)
+    contact = _g01(_gcode(tool_path))[1]
+    dt = planned_segment_times(tool_path)
+    k = 0
+    ratios = []
+    for a, b in _pieces_of(tool_path):
+        seg, prev = pts[k + 1 : k + (b - a)], pts[k : k + (b - a) - 1]
+        t = np.linalg.norm(seg - prev, axis=1) * 60.0 / feed[k + 1 : k + (b - a)]
+        assert np.allclose(t, dt[a + 1 : b], rtol=1e-3)
+        ratios.append(feed[k + 1 : k + (b - a)] / contact[k + 1 : k + (b - a)])
+        k += (b - a) + 1
+    ratios = np.concatenate(ratios)
+    # on a convex cap the centre runs a longer path than the contact point: every F is raised
+    assert np.median(ratios) > 1.0 + 0.5 * r / 30.0
+
+
+def test_linuxcnc_refuses_nurbs_and_bad_modes(tool_path):
+    with pytest.raises(ParameterError, match="LinuxCNC cannot run G06.2") as e:
+        _gcode(tool_path, mode="nurbs")
+    assert "--post fanuc" in e.value.hint if hasattr(e.value, "hint") else "--post fanuc" in str(e.value)
+    with pytest.raises(ParameterError, match="Unknown G-code mode"):
+        _gcode(tool_path, mode="spline")
+    with pytest.raises(ParameterError, match="no inverse-time"):
+        _gcode(tool_path, post="fanuc", feed_mode="inverse-time")
+    with pytest.raises(ParameterError, match="writes toolpath.xyz, not G-code"):
+        _gcode(tool_path, post="xyz")
+
+
+# --------------------------------------------------------------------------- fanuc
+
+
+_WORD = re.compile(r"([A-Z])([-+]?\d+(?:\.\d*)?)")
+
+
+def fanuc_check(text: str) -> list[dict]:
+    """Check a Fanuc program and return its G06.2 NURBS blocks, one dict per curve.
+
+    Written from the Fanuc NURBS interpolation format (15i/30i): the first block
+    ``G06.2 P<rank> K<knot> X Y Z [R<weight>] [F<feed>]``, then ``K X Y Z [R]`` per
+    further control point, then ``rank`` blocks of ``K`` alone; the rank is 2..4;
+    the knots never decrease; the first and the last ``rank`` knots are equal
+    (the curve starts at the current position); the NURBS mode ends with the
+    next group-01 G code. Every block is address words (letter + number) or a
+    comment; the program starts with ``%`` and an O number and ends with M30 and ``%``.
+    """
+    lines = text.splitlines()
+    assert lines[0] == "%" and lines[-1] == "%", "tape delimiters"
+    assert re.fullmatch(r"O\d{4}", lines[1]), "program number"
+    curves, cur, pos, tail = [], None, None, 0
+    for raw in lines[2:-1]:
+        if raw.startswith("("):
+            assert raw.endswith(")") and raw.count("(") == 1, raw
+            continue
+        assert _WORD.sub("", raw).strip() == "", f"not address words: {raw!r}"
+        words = _WORD.findall(raw)
+        letters = [w[0] for w in words]
+        d = {}
+        for L, v in words:
+            if L != "G" and L != "M":
+                d[L] = float(v)
+        gs = [v for L, v in words if L == "G"]
+        if cur is not None and (tail == cur["P"] or letters[:1] != ["K"]):
+            # the curve ends here (its knot count is checked below): a G01/G00 (group 01) must end NURBS mode
+            assert any(g in ("00", "01", "0", "1") for g in gs), f"NURBS mode not ended before {raw!r}"
+            curves.append(cur)
+            cur = None
+        if "06.2" in gs:
+            assert cur is None and {"P", "K", "X", "Y", "Z", "F"} <= set(d), raw
+            assert 2 <= d["P"] <= 4 and d["F"] > 0
+            cur = {"P": int(d["P"]), "K": [d["K"]], "C": [(d["X"], d["Y"], d["Z"])], "R": [d.get("R", 1.0)],
+                   "F": d["F"], "start": pos}
+            tail = 0
+        elif cur is not None:
+            assert letters[0] == "K" and gs == [], f"inside G06.2: {raw!r}"
+            if set(d) == {"K"}:
+                tail += 1
+                cur["K"].append(d["K"])
+            else:
+                assert tail == 0 and {"K", "X", "Y", "Z"} <= set(d), f"control block after the trailing knots: {raw!r}"
+                cur["K"].append(d["K"])
+                cur["C"].append((d["X"], d["Y"], d["Z"]))
+                cur["R"].append(d.get("R", 1.0))
+        if cur is None and {"X", "Y", "Z"} & set(d):
+            pos = tuple(d.get(a, (pos or (0, 0, 0))["XYZ".index(a)]) for a in "XYZ")
+    assert cur is None, "program ends inside a NURBS curve"
+    for c in curves:
+        kn, p = np.array(c["K"]), c["P"]
+        assert len(kn) == len(c["C"]) + p, "knots = control points + rank"
+        assert np.all(np.diff(kn) >= 0), "knots never decrease"
+        assert np.all(kn[:p] == kn[0]) and np.all(kn[-p:] == kn[-1]), "clamped knots"
+        assert all(w > 0 for w in c["R"])
+        assert np.allclose(c["start"], c["C"][0], atol=1e-4), "the curve starts at the current position"
+    assert "M30" in text
+    return curves
+
+
+def test_fanuc_nurbs_program_passes_the_format_check_and_rebuilds_the_curve(tool_path):
+    text = _gcode(tool_path, post="fanuc", header={"seed": 5})
+    assert "FANUC 15i/30i-CLASS CONTROLS WITH THE NURBS INTERPOLATION OPTION" in text and "not for LinuxCNC" in text
+    assert "G64" not in text and "\nO0001\n" in text
+    curves = fanuc_check(text)
+    sp = tool_path.surface_path
+    assert len(curves) == len(sp.planar.pieces) - 1
+    pp = tool_path.stats["piece_params"]
+    dt = planned_segment_times(tool_path)
+    for k, c in enumerate(curves):
+        kn, cp = np.array(c["K"]), np.array(c["C"])
+        assert c["P"] == 4
+        curve = NurbsCurve(c["P"] - 1, (kn - kn[0]) / (kn[-1] - kn[0]), cp)
+        a, b = sp.planar.pieces[k], sp.planar.pieces[k + 1]
+        u = np.clip((tool_path.dwell_params[a:b] - pp[k]) / (pp[k + 1] - pp[k]), 0, 1)
+        assert np.abs(evaluate(curve, u) - sp.xyz[a:b]).max() < 5e-4
+        # one feed per piece: the piece's length over its planned time
+        sa, sb = _pieces_of(tool_path)[k]
+        length = np.linalg.norm(np.diff(tool_path.samples[sa:sb], axis=0), axis=1).sum()
+        assert length * 60.0 / c["F"] == pytest.approx(dt[sa:sb].sum(), rel=1e-3)
+
+
+def test_fanuc_check_catches_a_broken_program(tool_path):
+    text = _gcode(tool_path, post="fanuc")
+    lines = text.splitlines()
+    last_k = max(i for i, ln in enumerate(lines) if re.fullmatch(r"K[\d.]+", ln))
+    with pytest.raises(AssertionError, match="knots = control points"):
+        fanuc_check("\n".join(lines[:last_k] + lines[last_k + 1:]))
+    with pytest.raises(AssertionError, match="address words"):
+        fanuc_check(text.replace("G06.2 P4", "G06.2 P4 #1", 1))
+
+
+def test_fanuc_with_tool_radius_offsets_the_dwell_points(tool_path):
+    r = 2.0
+    curves = fanuc_check(_gcode(tool_path, post="fanuc", tool_radius=r))
+    sp = tool_path.surface_path
+    for k, c in enumerate(curves):
+        a, b = sp.planar.pieces[k], sp.planar.pieces[k + 1]
+        cp = np.array(c["C"])
+        # clamped interpolating curve: it starts and ends at the offset end dwell points
+        assert np.abs(cp[0] - (sp.xyz[a] + r * sp.normals[a])).max() <= 1e-4
+        assert np.abs(cp[-1] - (sp.xyz[b - 1] + r * sp.normals[b - 1])).max() <= 1e-4
+    lin = _gcode(tool_path, post="fanuc", mode="linear", tool_radius=r)
+    assert "\nG06.2" not in lin and "\nG93" not in lin and "FEED: G94" in lin
+
+
+# --------------------------------------------------------------------------- xyz and csv
+
+
+def test_xyz_and_csv_posts_write_the_record_files(tool_path, tmp_path):
+    info = write_program(tool_path, tmp_path, post="xyz")
+    assert info["file"] == "toolpath.xyz" and info["coordinates"] == "contact point"
+    ref = io.StringIO()
+    write_xyz(tool_path, ref)
+    assert (tmp_path / "toolpath.xyz").read_text() == ref.getvalue()
+    assert read_xyz(tmp_path / "toolpath.xyz").shape == tool_path.samples.shape
+    info = write_program(tool_path, tmp_path, post="csv")
+    ref = io.StringIO()
+    write_path_csv(tool_path, ref)
+    assert (tmp_path / "path.csv").read_text() == ref.getvalue()
+    assert np.array_equal(read_path_csv(tmp_path / "path.csv")["dwell_time"], tool_path.dwell_times)
+    assert info["machining_time_s"] == pytest.approx(tool_path.dwell_times.sum())
+    with pytest.raises(ParameterError, match="cannot offset them by a tool radius"):
+        write_program(tool_path, tmp_path, post="xyz", tool_radius=1.0)
+
+
+def test_machining_time_is_the_feed_moves_of_the_file(tool_path, tmp_path):
+    info = write_program(tool_path, tmp_path, post="linuxcnc")
+    n_pieces = len(_pieces_of(tool_path))
+    assert info["path_time_s"] == pytest.approx(planned_segment_times(tool_path).sum(), rel=1e-9)
+    assert info["machining_time_s"] == pytest.approx(info["path_time_s"] + n_pieces * 2 * 2.0 * 60 / 300.0)
+    assert (tmp_path / "toolpath.nc").read_text().count("\nG00 Z") == 3 * n_pieces
+
+
+# --------------------------------------------------------------------------- the job's options
+
+
+def test_post_options_from_the_command_line_and_a_post_table(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    job = tmp_path / "job.toml"
+    job.write_text('[job]\nsurface = "hemisphere:R=12,triangles=700"\nspacing = 2.0\nseed = 4\ntool_radius = 1.5\n\n'
+                   '[post]\nspindle_rpm = 100\nclearance_mm = 8.0\nfeed_mode = "per-minute"\n')
+    base = [sys.executable, "-m", "polishpath", "plan", "--no-report", "-q"]
+    r = subprocess.run([*base, "--config", str(job), "-o", str(tmp_path / "a")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    nc = (tmp_path / "a" / "toolpath.nc").read_text()
+    assert "\nM3 S100\n" in nc and "\nG93\n" not in nc and "COORDINATES: TOOL CENTRE" in nc
+    s = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert s["post"]["post"] == "linuxcnc" and s["post"]["feed_mode"] == "per-minute"
+    assert s["machining_time_s"] == pytest.approx(s["post"]["machining_time_s"]) and s["machining_time_s"] > 0
+    from gcodeparser import parse_gcode_lines
+
+    safe = s["post"]["clearance_z_mm"]
+    zs = [ln.params["Z"] for ln in parse_gcode_lines(nc) if "Z" in ln.params and abs(ln.params["Z"] - safe) > 1e-4]
+    assert safe == pytest.approx(max(zs) + 8.0, abs=1e-4)  # 8 mm over the highest other move
+    assert f"\nG00 Z{s['post']['clearance_z_mm']:.4f}\n" in nc
+    # the run's own job.toml keeps the [post] table: re-running it writes the same G-code
+    r = subprocess.run([*base, "--config", str(tmp_path / "a" / "job.toml"), "-o", str(tmp_path / "b")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "b" / "toolpath.nc").read_text() == nc
+    # --post on the command line wins over the file; a bad [post] setting is named
+    r = subprocess.run([*base, "--config", str(job), "--post", "fanuc", "-o", str(tmp_path / "c")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "\nG06.2 P4" in (tmp_path / "c" / "toolpath.nc").read_text()
+    job.write_text(job.read_text().replace("spindle_rpm = 100", "spindle = 100"))
+    r = subprocess.run([*base, "--config", str(job), "-o", str(tmp_path / "d")], capture_output=True, text=True)
+    assert r.returncode == 2 and "unknown post setting(s) spindle" in r.stderr and "Traceback" not in r.stderr
+    r = subprocess.run([*base, "hemisphere:R=12,triangles=700", "--spacing", "2", "--post", "xyz", "-o",
+                        str(tmp_path / "e")], capture_output=True, text=True)
+    assert r.returncode == 0 and not (tmp_path / "e" / "toolpath.nc").exists()
+    assert json.loads((tmp_path / "e" / "summary.json").read_text())["post"]["file"] == "toolpath.xyz"
