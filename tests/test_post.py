@@ -379,3 +379,39 @@ def test_post_options_from_the_command_line_and_a_post_table(tmp_path):
                         str(tmp_path / "e")], capture_output=True, text=True)
     assert r.returncode == 0 and not (tmp_path / "e" / "toolpath.nc").exists()
     assert json.loads((tmp_path / "e" / "summary.json").read_text())["post"]["file"] == "toolpath.xyz"
+
+
+# --------------------------------------------------------------------------- gouge
+
+
+def test_concave_radius_is_exact_on_a_sphere_and_inf_on_a_convex_part():
+    from polishpath.export.post.gouge import concave_radii
+
+    t = np.linspace(0.1, 1.2, 30)
+    R = 40.0
+    # the inside of a sphere (a bowl): normals point to the centre, towards the tool
+    p = np.column_stack([R * np.sin(t), np.zeros_like(t), R - R * np.cos(t)])
+    n = (np.array([0.0, 0.0, R]) - p) / R
+    r = concave_radii(p, n, np.array([0, len(t)]))
+    assert np.allclose(r, R, rtol=1e-12)
+    assert np.all(np.isinf(concave_radii(p, -n, np.array([0, len(t)]))))  # seen from outside: convex
+    # a lift between pieces is not a step
+    assert len(concave_radii(p, n, np.array([0, 10, len(t)]))) == len(t) - 2
+
+
+def test_a_tool_larger_than_the_concave_radius_is_warned(tmp_path):
+    import subprocess
+    import sys
+
+    base = [sys.executable, "-m", "polishpath", "plan", "saddle", "--spacing", "2", "--seed", "2", "--no-report", "-q"]
+    r = subprocess.run([*base, "--tool-radius", "100", "-o", str(tmp_path / "a")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "warning: tool radius 100 mm exceeds the part's smallest concave radius" in r.stderr
+    assert "the ball is inside the part" in r.stderr
+    import json
+
+    g = json.loads((tmp_path / "a" / "summary.json").read_text())["post"]["gouge"]
+    assert 40 < g["min_concave_radius_mm"] < 60  # the saddle's R = 50 mm, from the dwell normals
+    assert g["interference_mm"] > 1.0
+    r = subprocess.run([*base, "--tool-radius", "5", "-o", str(tmp_path / "b")], capture_output=True, text=True)
+    assert r.returncode == 0 and "warning" not in r.stderr, r.stderr

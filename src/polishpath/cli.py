@@ -281,6 +281,8 @@ def plan_cmd(
         job = run(cfg)
         written = job.save(out_dir)
         summary = job.summary()
+        for w in (summary.get("post") or {}).get("warnings", []):
+            typer.echo(f"polishpath: warning: {w}", err=True)
         if json_out:
             _print_json({"output": {k: str(v) for k, v in written.items()}, **summary})
             return

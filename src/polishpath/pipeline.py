@@ -125,7 +125,8 @@ class Job:
         with progress.stage("writing machine files", self.timings, "write"):
             cfg = self.config
             self.program = export.write_program(self.tool_path, out, post=cfg.post, settings=cfg.post_settings,
-                                                mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header)
+                                                mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
+                                                surface=self.surface)
             written["program"] = Path(self.program["path"])
             if self.program["file"] != "path.csv":
                 export.write_path_csv(self.tool_path, out / "path.csv")

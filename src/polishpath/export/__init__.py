@@ -18,7 +18,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import ParameterError
-from ..types import ToolPath
+from ..types import Surface, ToolPath
 from .files import (
     PATH_CSV_COLUMNS,
     read_dwell_times,
@@ -49,7 +49,8 @@ __all__ = [
 
 
 def write_gcode(tool_path: ToolPath, file, *, post: str = DEFAULT_POST, mode: str | None = None,
-                tool_radius: float = 0.0, header: dict | None = None, **settings: Any) -> dict[str, Any]:
+                tool_radius: float = 0.0, header: dict | None = None, surface: Surface | None = None,
+                **settings: Any) -> dict[str, Any]:
     """G-code of a G-code post (``linuxcnc`` or ``fanuc``) into ``file`` (path or text file).
 
     Parameters
@@ -64,6 +65,8 @@ def write_gcode(tool_path: ToolPath, file, *, post: str = DEFAULT_POST, mode: st
         point moved this far along the surface normal (0: the contact point).
     header : dict, optional
         Everything to record in the header comment (surface, spacing, seed, parameters).
+    surface : Surface, optional
+        The part's mesh, for the gouge check of a tool radius (``warnings`` in the result).
     **settings
         :class:`PostSettings` fields (clearance_mm, spindle_rpm, feed_mode ...).
 
@@ -75,4 +78,4 @@ def write_gcode(tool_path: ToolPath, file, *, post: str = DEFAULT_POST, mode: st
     p = get_post(post, settings or None)
     if p.filename != "toolpath.nc":
         raise ParameterError(f"The {post} post writes {p.filename}, not G-code.", "Use post='linuxcnc' or 'fanuc'.")
-    return p.write(tool_path, file, mode=mode, tool_radius=tool_radius, header=header)
+    return p.write(tool_path, file, mode=mode, tool_radius=tool_radius, header=header, surface=surface)

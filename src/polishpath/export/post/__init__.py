@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import ParameterError
-from ...types import ToolPath
+from ...types import Surface, ToolPath
 from .base import GcodePost, Piece, PostProcessor, PostSettings, offset_along_normals, planned_segment_times
 from .fanuc import FanucPost
 from .files import CsvPost, XyzPost
@@ -50,9 +50,13 @@ def post_help() -> str:
 
 def write_program(tool_path: ToolPath, out_dir: str | Path, *, post: str = DEFAULT_POST,
                   settings: dict[str, Any] | None = None, mode: str | None = None, tool_radius: float = 0.0,
-                  header: dict | None = None) -> dict[str, Any]:
-    """Write the post's file into ``out_dir`` (atomically); returns what it wrote (see :meth:`PostProcessor.write`)."""
+                  header: dict | None = None, surface: Surface | None = None) -> dict[str, Any]:
+    """Write the post's file into ``out_dir`` (atomically); returns what it wrote (see :meth:`PostProcessor.write`).
+
+    ``surface``: the part's mesh, for the gouge check of a tool radius (``info["warnings"]``).
+    """
     p = get_post(post, settings)
-    info = p.write(tool_path, Path(out_dir) / p.filename, mode=mode, tool_radius=tool_radius, header=header)
+    info = p.write(tool_path, Path(out_dir) / p.filename, mode=mode, tool_radius=tool_radius, header=header,
+                   surface=surface)
     info["path"] = str(Path(out_dir) / p.filename)
     return info

@@ -38,8 +38,9 @@ import numpy as np
 
 from ..._version import __version__
 from ...errors import ParameterError
-from ...types import ToolPath
+from ...types import Surface, ToolPath
 from ..files import _fmt, _rounded, _text_out, _write_rows
+from .gouge import gouge_check
 
 __all__ = ["PostSettings", "PostProcessor", "GcodePost", "Piece", "offset_along_normals", "planned_segment_times"]
 
@@ -224,8 +225,12 @@ class PostProcessor:
         return (f"The {self.name} post cannot write {mode} moves.", f"Use --gcode {self.modes[0]}.")
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None) -> dict[str, Any]:
-        """Write the file; returns what it wrote (post, mode, feed mode, coordinates, times, lines)."""
+              header: dict | None = None, surface: Surface | None = None) -> dict[str, Any]:
+        """Write the file; returns what it wrote (post, mode, feed mode, coordinates, times, lines).
+
+        ``surface`` (the part's mesh), when given with a tool radius, is used for the
+        gouge check (:func:`polishpath.export.post.gouge.gouge_check`).
+        """
         raise NotImplementedError
 
 
@@ -359,7 +364,7 @@ class GcodePost(PostProcessor):
         return lines
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None) -> dict[str, Any]:
+              header: dict | None = None, surface: Surface | None = None) -> dict[str, Any]:
         mode = self.check(mode=mode, tool_radius=tool_radius)
         tool_radius = float(tool_radius)
         feed_mode = self.feed_mode(tool_radius)
@@ -406,7 +411,9 @@ class GcodePost(PostProcessor):
                 n_moves += lines
                 appr_s += 2 * a * 60.0 / s.approach_feed_mm_min
             fh.write(s.postamble.rstrip("\n") + "\n%\n")
+        gouge = gouge_check(tool_path, tool_radius, surface) if tool_radius > 0 else None
         return {"post": self.name, "file": self.filename, "mode": mode, "feed_mode": feed_mode,
+                "gouge": gouge, "warnings": list(gouge["warnings"]) if gouge else [],
                 "coordinates": "tool centre" if tool_radius > 0 else "contact point", "tool_radius_mm": tool_radius,
                 "blending_tol_mm": tol if s.blending else None, "spindle_rpm": s.spindle_rpm,
                 "clearance_z_mm": safe, "approach_mm": a, "approach_feed_mm_min": s.approach_feed_mm_min,

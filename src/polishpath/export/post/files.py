@@ -18,7 +18,7 @@ class XyzPost(PostProcessor):
     filename: ClassVar[str] = "toolpath.xyz"
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None) -> dict[str, Any]:
+              header: dict | None = None, surface=None) -> dict[str, Any]:
         self.check(mode=mode, tool_radius=tool_radius)
         write_xyz(tool_path, file)
         t = float(planned_segment_times(tool_path).sum())
@@ -35,7 +35,7 @@ class CsvPost(PostProcessor):
     filename: ClassVar[str] = "path.csv"
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None) -> dict[str, Any]:
+              header: dict | None = None, surface=None) -> dict[str, Any]:
         self.check(mode=mode, tool_radius=tool_radius)
         write_path_csv(tool_path, file)
         t = float(tool_path.dwell_times.sum()) if tool_path.dwell_times is not None else None
