@@ -86,9 +86,15 @@ def job(request):
     return run(surface=str(mesh), scale=20.0, spacing=1.5, seed=3, report=False)
 
 
-@pytest.mark.parametrize("radius", [0.0, 5.0])
-def test_rs274_runs_every_move_with_its_planned_time(rs274, job, radius, tmp_path):
+@pytest.mark.parametrize("radius, machine", [(0.0, None), (5.0, None), (0.0, "gentle"), (5.0, "gentle")])
+def test_rs274_runs_every_move_with_its_planned_time(rs274, job, radius, machine, tmp_path):
     tp = job.tool_path
+    if machine:
+        from conftest import REPO
+        from polishpath.schedule import load_machine, schedule_feeds
+
+        tp = schedule_feeds(tp, load_machine(REPO / "examples" / f"machine-{machine}.toml"))[0]
+        assert not np.array_equal(tp.feed_mm_min, job.tool_path.feed_mm_min)
     f = tmp_path / "toolpath.nc"
     info = write_gcode(tp, f, tool_radius=radius)
     assert info["feed_mode"] == ("inverse-time" if radius else "per-minute")

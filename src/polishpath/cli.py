@@ -585,6 +585,12 @@ def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> Non
     for key in ("coverage", "directions_used", "crossings"):
         if key in m:
             typer.echo(f"  {key:28s} {m[key]}")
+    sc = summary.get("schedule")
+    if sc:
+        e = sc["dwell_time_error"]
+        typer.echo(f"  machine {sc['machine']['name']}: {sc['machining_time_s'] / 60:.1f} min of path moves "
+                   f"({100 * sc['time_increase']:+.1f} % on the plan), limits slow {100 * sc['limited_share']:.1f} % "
+                   f"of the segments; dwell-time error max {e['max']:.3g}, p99 {e['p99']:.3g}, rms {e['rms']:.3g}")
     pr = summary.get("post")
     if pr:
         typer.echo(f"  machine file: {pr['file']} ({pr['post']}, {pr['mode']}, {pr['feed_mode']} feed, "

@@ -49,6 +49,7 @@ class Job:
     timings: dict[str, float] = field(default_factory=dict)
     plan_metrics: dict[str, Any] = field(default_factory=dict)
     program: dict[str, Any] = field(default_factory=dict)  # what the post wrote (Job.save)
+    schedule: dict[str, Any] = field(default_factory=dict)  # the feed schedule under the machine profile
 
     @property
     def seed(self) -> int | None:
@@ -99,6 +100,8 @@ class Job:
             ),
             "timings_s": self.timings,
         }
+        if self.schedule:
+            s["schedule"] = self.schedule
         if self.program:
             s["post"] = self.program
             s["machining_time_s"] = self.program.get("machining_time_s")
@@ -124,7 +127,7 @@ class Job:
         header = self.gcode_header()
         with progress.stage("writing machine files", self.timings, "write"):
             cfg = self.config
-            self.program = export.write_program(self.tool_path, out, post=cfg.post, settings=cfg.post_settings,
+            self.program = export.write_program(self.tool_path, out, post=cfg.post_name(), settings=cfg.post_settings,
                                                 mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
                                                 surface=self.surface)
             written["program"] = Path(self.program["path"])
@@ -431,13 +434,22 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         pm = path_metrics(planar, region)
     smooth_kw = {k: getattr(cfg, k) for k in ("feed_mm_min", "period_ms", "chord_tol_mm") if getattr(cfg, k) is not None}
     smooth_kw["integrator"] = cfg.integrator
+    machine = cfg.machine_profile()
+    if machine is not None:
+        smooth_kw.setdefault("period_ms", machine.period_ms)
     if cfg.dwell_times:
         from .export import read_dwell_times
 
         smooth_kw["dwell_times"] = read_dwell_times(cfg.dwell_times, n_points=planar.n_points)
     with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth"):
         tool = smooth(spath, surface=surface, **smooth_kw)
-    return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm)
+    sched: dict[str, Any] = {}
+    if machine is not None:
+        from .schedule import schedule_feeds
+
+        with progress.stage(f"feed schedule under {machine.name}", timings, "schedule"):
+            tool, sched = schedule_feeds(tool, machine)
+    return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched)
 
 
 def rebuild_report(out_dir: str | Path) -> dict[str, Path]:
