@@ -1,6 +1,6 @@
 """Architecture rule: the data flows one way, and stages meet only through plain data.
 
-    core -> surfaces -> flatten -> plan -> mapping -> smooth -> export / psd / simulate / report
+    core -> surfaces -> flatten -> plan -> mapping -> smooth -> schedule -> export / psd / simulate / report
          -> config -> pipeline -> paper -> cli
 
 Every module and package under ``src/polishpath`` is a unit of one of these
@@ -37,7 +37,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
 CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "provenance", "defaults", "_version"}
 # every other unit, upstream first
-ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "export", "psd", "simulate", "report",
+ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "schedule", "export", "psd", "simulate", "report",
          "config", "pipeline", "paper", "cli", "__main__", "__init__"]
 # pairs (unit, upstream unit) that may not meet although the order would allow it
 INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces")}

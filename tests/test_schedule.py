@@ -137,7 +137,9 @@ def test_plan_with_machine_writes_the_schedule_and_refuses_files_without_feeds(t
     assert r.returncode == 2 and "cannot carry a machine profile's feed schedule" in r.stderr
     r = _plan(tmp_path / "c", "hemisphere:R=12,triangles=700", "--spacing", "2", "--machine", "no-such-mill")
     assert r.returncode == 2 and "neither a built-in" in r.stderr and "Traceback" not in r.stderr
-    with pytest.raises(ParameterError):
-        from polishpath.pipeline import JobConfig
+    from polishpath.config import JobConfig
+    from polishpath.pipeline import check_machine_output
 
-        JobConfig(machine="generic-3axis", post="csv").validate()
+    with pytest.raises(ParameterError, match="cannot carry"):
+        check_machine_output(JobConfig(machine="generic-3axis", post="csv"))
+    assert check_machine_output(JobConfig(machine="generic-3axis")).name == "generic-3axis"

@@ -104,10 +104,23 @@ class JobConfig:
         How the constant-period interpolation advances the curve parameter:
         Taylor predictor with an exact chord corrector (default) or the paper's
         Adams-Bashforth / Adams-Moulton (see docs/machine-output.md).
-    gcode : {"linear", "nurbs"}
-        G-code flavour: dense G01 moves or Fanuc-style G06.2 NURBS blocks.
+    post : str or None
+        Post-processor writing the machine file (:mod:`polishpath.export.post`):
+        ``linuxcnc`` (toolpath.nc), ``fanuc`` (G06.2 NURBS), ``xyz``, ``csv``; None:
+        the machine profile's, else ``linuxcnc``.
+    machine : str or None
+        Machine profile (a TOML file or a built-in name such as ``generic-3axis``):
+        the feeds are scheduled under its limits (:mod:`polishpath.schedule`) and
+        its interpolation period is the default ``period_ms``.
+    post_settings : dict or None
+        The ``[post]`` table of a job TOML: :class:`polishpath.export.PostSettings`
+        fields (spindle_rpm, clearance_mm, approach_mm, feed_mode ...).
+    gcode : {"linear", "nurbs"} or None
+        G-code flavour: dense G01 moves or G06.2 NURBS blocks; None: the post's own
+        (linuxcnc: linear, all LinuxCNC takes; fanuc: nurbs).
     tool_radius : float
-        Offset contact points to the tool centre along the normal, mm (0: none).
+        Offset contact points to the tool centre along the normal, mm (0: none);
+        the feeds become those of the tool centre, so every segment keeps its planned time.
     dwell_times : str or None
         CSV of per-dwell-point times (s), in path order.
     report : bool
@@ -151,9 +164,24 @@ class JobConfig:
                              help="How the machine samples advance along the NURBS: 'taylor' (default: Taylor "
                                   "predictor, exact chord corrector) or 'ab-am' (the paper's Adams-Bashforth / "
                                   "Adams-Moulton).")
-    gcode: str = option("linear", "--gcode", choices=("linear", "nurbs"),
-                        help="'linear' (G01, default) or 'nurbs' (G06.2).")
-    tool_radius: float = option(0.0, "--tool-radius", help="Offset to the tool centre along the normal, mm.",
+    post: str | None = option(
+        None, "--post",
+        help="Post-processor of the machine file: linuxcnc (default: LinuxCNC 2.8/2.9 G-code, toolpath.nc), fanuc "
+             "(G06.2 NURBS for Fanuc 15i/30i-class controls with NURBS interpolation), xyz (the paper's X Y Z file), "
+             "csv (path.csv). Settings: a [post] table in --config.")
+    machine: str | None = option(
+        None, "--machine",
+        help="Machine profile: a TOML file of axis limits (see examples/machine-*.toml) or the built-in "
+             "generic-3axis; the feeds are scheduled so the axes can follow them, and its post and interpolation "
+             "period are the defaults.")
+    post_settings: dict[str, Any] | None = option(
+        None, help="Post-processor settings ([post] table of a job TOML; see docs/machine-output.md).")
+    gcode: str | None = option(None, "--gcode", choices=("linear", "nurbs"),
+                               help="'linear' (G01; linuxcnc's, the only one LinuxCNC runs) or 'nurbs' (G06.2, "
+                                    "--post fanuc's default).")
+    tool_radius: float = option(0.0, "--tool-radius",
+                                help="Ball/sponge radius, mm: the G-code drives the tool centre (contact point + "
+                                     "radius along the normal) with feeds that keep every segment's planned time.",
                                 nonnegative=True)
     dwell_times: str | None = option(None, "--dwell-times", help="CSV of per-dwell-point times (s) in path order.")
     report: bool = option(True, "--report/--no-report", help="Write report.html and the PNG figures (default: yes).")
@@ -232,6 +260,10 @@ def _check(f: dataclasses.Field, v: Any) -> Any:
     elif t is str:
         ok = isinstance(v, str)
         kind = "text"
+    elif typing.get_origin(t) is dict:
+        ok = isinstance(v, dict) and all(isinstance(k, str) for k in v)
+        kind = "a table of settings"
+        v = dict(v) if ok else v
     else:  # the (u, v) pair
         ok = (isinstance(v, (list, tuple)) and len(v) == 2
               and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v))
@@ -255,9 +287,10 @@ def parse_job(*, toml: str | Path | None = None, base: JobConfig | None = None, 
     Parameters
     ----------
     toml : path, optional
-        A job TOML: a ``[job]`` table (or top-level keys) of option names. A
-        relative ``surface`` or ``dwell_times`` path that exists beside the file
-        is taken relative to it.
+        A job TOML: a ``[job]`` table (or top-level keys) of option names, and a
+        ``[post]`` table of post-processor settings (``post_settings``). A
+        relative ``surface``, ``dwell_times`` or ``machine`` path that exists
+        beside the file is taken relative to it.
     base : JobConfig, optional
         Start from these options instead of the defaults.
     **options
@@ -299,7 +332,12 @@ def _read_job_toml(p: Path) -> dict[str, Any]:
         raise SpecError(f"{p.name}: unknown job option(s) {', '.join(sorted(unknown))}.",
                         f"Options: {', '.join(sorted(FIELDS))}.")
     kw = dict(table)
-    for key in ("surface", "dwell_times"):  # a relative path beside the file is relative to it
+    post = data.get("post") if "job" in data else None  # a [post] table beside [job]: the post settings
+    if post is not None:
+        if not isinstance(post, dict):
+            raise SpecError(f"{p.name}: [post] must be a table of post-processor settings.")
+        kw["post_settings"] = {**post, **(kw.get("post_settings") or {})}
+    for key in ("surface", "dwell_times", "machine"):  # a relative path beside the file is relative to it
         v = kw.get(key)
         if isinstance(v, str) and not Path(v).is_absolute() and (p.parent / v).exists():
             kw[key] = str(p.parent / v)

@@ -127,7 +127,7 @@ class Job:
         header = self.gcode_header()
         with progress.stage("writing machine files", self.timings, "write"):
             cfg = self.config
-            self.program = export.write_program(self.tool_path, out, post=cfg.post_name(), settings=cfg.post_settings,
+            self.program = export.write_program(self.tool_path, out, post=post_name(cfg), settings=cfg.post_settings,
                                                 mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
                                                 surface=self.surface)
             written["program"] = Path(self.program["path"])
@@ -418,6 +418,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
 
     cfg = parse_job(base=config, **options)
     cfg = dataclasses.replace(cfg, seed=resolve_seed(cfg.seed))
+    machine = check_machine_output(cfg)
     timings: dict[str, float] = {}
 
     with progress.stage("reading surface", timings, "surface"):
@@ -434,7 +435,6 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         pm = path_metrics(planar, region)
     smooth_kw = {k: getattr(cfg, k) for k in ("feed_mm_min", "period_ms", "chord_tol_mm") if getattr(cfg, k) is not None}
     smooth_kw["integrator"] = cfg.integrator
-    machine = cfg.machine_profile()
     if machine is not None:
         smooth_kw.setdefault("period_ms", machine.period_ms)
     if cfg.dwell_times:
@@ -450,6 +450,38 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         with progress.stage(f"feed schedule under {machine.name}", timings, "schedule"):
             tool, sched = schedule_feeds(tool, machine)
     return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched)
+
+
+def machine_profile(cfg: JobConfig):
+    """The :class:`~polishpath.schedule.MachineProfile` of ``cfg.machine`` (None without one)."""
+    if cfg.machine is None:
+        return None
+    from .schedule import load_machine
+
+    return load_machine(cfg.machine)
+
+
+def post_name(cfg: JobConfig) -> str:
+    """``cfg.post``, else the machine profile's post, else ``linuxcnc``."""
+    if cfg.post is not None:
+        return cfg.post
+    m = machine_profile(cfg)
+    return m.post if m is not None else "linuxcnc"
+
+
+def check_machine_output(cfg: JobConfig):
+    """Refuse, before any work, what the post or the machine cannot take; returns the machine profile (or None)."""
+    from .export import get_post
+
+    machine = machine_profile(cfg)
+    post = get_post(post_name(cfg), cfg.post_settings)
+    post.check(mode=cfg.gcode, tool_radius=cfg.tool_radius)
+    if machine is not None and post.filename != "toolpath.nc":
+        raise ParameterError(
+            f"The {post.name} post cannot carry a machine profile's feed schedule: {post.filename} has no feeds "
+            "(the xyz file runs at a constant period, path.csv holds dwell times).",
+            "Use a G-code post (--post linuxcnc or fanuc) with --machine, or leave --machine out.")
+    return machine
 
 
 def rebuild_report(out_dir: str | Path) -> dict[str, Path]:
