@@ -127,9 +127,11 @@ class Job:
         header = self.gcode_header()
         with progress.stage("writing machine files", self.timings, "write"):
             cfg = self.config
-            self.program = export.write_program(self.tool_path, out, post=post_name(cfg), settings=cfg.post_settings,
-                                                mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
-                                                surface=self.surface)
+            info = export.write_program(self.tool_path, out, post=post_name(cfg), settings=cfg.post_settings,
+                                        mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
+                                        surface=self.surface)
+            self.program.clear()  # the record of what the post wrote fills as the files are written (like timings)
+            self.program.update(info)
             written["program"] = Path(self.program["path"])
             if self.program["file"] != "path.csv":
                 export.write_path_csv(self.tool_path, out / "path.csv")
