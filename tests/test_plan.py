@@ -62,7 +62,9 @@ def random_regions(draw):
     outer = np.c_[rad * np.cos(ang), rad * np.sin(ang)]
     holes = ()
     if kind == "poly_hole":
-        holes = (disc(1.5, 12, (0.0, 0.0))[::-1],)  # inside: every radius >= 4 > hole
+        # inside the outer loop: its edges come no closer to 0 than 4 cos(1.9 pi / 5) ~ 1.47 mm
+        # (radius >= 4, angular gap < 1.9 * 2 pi / 5), so the hole must stay under that
+        holes = (disc(1.0, 12, (0.0, 0.0))[::-1],)
     return Region(outer, holes)
 
 
