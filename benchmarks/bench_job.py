@@ -1,0 +1,232 @@
+"""Benchmark of the whole job (issue 15): ``polishpath plan`` on flat disks of 10^5 and 10^6 dwell points.
+
+Run: ``PYTHONPATH=src python benchmarks/bench_job.py [--sizes 1e5,1e6] [--huge] [--no-report] [--keep DIR]``
+
+For each size the benchmark writes a flat disk mesh (OBJ, about 20,000
+triangles, its radius chosen so that a 0.5 mm grid holds the wanted number of
+dwell points), then runs ``polishpath plan disk.obj --spacing 0.5 --seed 7``
+in a child process, as a user would, and prints:
+
+* the seconds of every stage (``summary.json`` ``timings_s``, the job's own
+  clock) and the child's wall time, from start to exit;
+* machine samples per second (the samples over the smoothing stage's time,
+  and over the interpolation kernels' own time);
+* each file written: size, seconds in its writer, MB/s, lines and bytes per
+  dwell point (the writer's time is measured around
+  :func:`polishpath.fileio.atomic_open`, through which every output goes:
+  the child wraps it before the stages load);
+* the child's peak RSS (``os.wait4``'s resource usage of that child alone);
+* the issue's targets, met or missed and by how much.
+
+``--huge`` adds 10^7 dwell points (minutes, and many GB of memory and disk).
+The machine is shared: the load average is printed with each run, so
+figures from a loaded machine are read as such. A warm-up job on a tiny disk
+runs first so that numba's compile (or cache load) is not in the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+SPACING_MM = 0.5
+SEED = 7
+
+# the issue's targets (issue 15, "Benchmarks")
+TARGET_1E6_S = 60.0
+TARGET_1E6_RSS_GB = 4.0
+TARGET_1E7_RSS_GB = 16.0
+TARGET_GCODE_BYTES_PER_POINT = 60.0
+TARGET_SAMPLES_PER_S = 2e6
+
+# Runs inside the child: time every atomic write (the outputs all go through
+# polishpath.fileio.atomic_open), then run the command line as a user would.
+# The stages import atomic_open when they load, after the wrapper is in place.
+_CHILD = r"""
+import contextlib, json, os, sys, time
+import polishpath.fileio as fileio
+
+_records = []
+_inner = fileio.atomic_open
+_t00 = time.perf_counter()
+
+@contextlib.contextmanager
+def _timed(path, mode="w"):
+    t0 = time.perf_counter()
+    with _inner(path, mode) as fh:
+        yield fh
+    t1 = time.perf_counter()
+    _records.append({"file": os.path.abspath(str(path)), "start": t0 - _t00, "end": t1 - _t00})
+
+fileio.atomic_open = _timed
+record_path, args = sys.argv[1], sys.argv[2:]
+sys.argv = ["polishpath"] + args
+from polishpath.cli import main
+try:
+    main()
+finally:
+    with open(record_path, "w") as fh:
+        json.dump(_records, fh)
+"""
+
+
+def disk_obj(path: Path, radius: float, triangles: int = 20000) -> None:
+    """Write a flat disk of ``radius`` mm in the plane z = 0 as an OBJ, about ``triangles`` triangles.
+
+    Concentric rings of points (about equal spacing), Delaunay-triangulated.
+    """
+    h = radius * math.sqrt(math.pi / (triangles / 2.0))  # vertex spacing: ~2 triangles per vertex
+    pts = [np.zeros((1, 2))]
+    for k in range(1, int(math.ceil(radius / h)) + 1):
+        r = min(k * h, radius)
+        m = max(6, int(round(2 * math.pi * r / h)))
+        t = np.arange(m) * 2 * math.pi / m + 0.5 * k
+        pts.append(np.column_stack([r * np.cos(t), r * np.sin(t)]))
+    xy = np.concatenate(pts)
+    tri = Delaunay(xy).simplices
+    # counter-clockwise triangles (normal +z)
+    a, b, c = xy[tri[:, 0]], xy[tri[:, 1]], xy[tri[:, 2]]
+    cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0
+    tri[cw] = tri[cw][:, [0, 2, 1]]
+    with open(path, "w") as fh:
+        fh.write("".join(f"v {x:.6f} {y:.6f} 0\n" for x, y in xy))
+        fh.write("".join(f"f {i + 1} {j + 1} {k + 1}\n" for i, j, k in tri))
+
+
+def count_lines(path: Path) -> int:
+    n = 0
+    with open(path, "rb") as fh:
+        while True:
+            block = fh.read(1 << 24)
+            if not block:
+                return n
+            n += block.count(b"\n")
+
+
+def run_job(n_points: float, work: Path, extra: list[str]) -> dict:
+    """Run ``polishpath plan`` on a disk of about ``n_points`` dwell points in a child; its figures."""
+    radius = math.sqrt(n_points * SPACING_MM**2 / math.pi)
+    mesh = work / f"disk-{n_points:.0e}.obj"
+    disk_obj(mesh, radius)
+    out = work / f"out-{n_points:.0e}"
+    rec = work / f"writers-{n_points:.0e}.json"
+    args = ["plan", str(mesh), "--spacing", str(SPACING_MM), "--seed", str(SEED), "-o", str(out), "--quiet",
+            "--max-points", str(int(4 * n_points) + 1000), *extra]
+    load = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD, str(rec), *args], stdout=subprocess.DEVNULL)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise SystemExit(f"polishpath plan exited {proc.returncode} for {n_points:.0e} points")
+    summary = json.loads((out / "summary.json").read_text())
+    writers = json.loads(rec.read_text())
+    return {"n_target": n_points, "radius": radius, "wall": wall, "load": load, "out": out, "summary": summary,
+            "writers": writers, "rss_gb": usage.ru_maxrss * 1024 / 1e9}
+
+
+def show(r: dict) -> list[str]:
+    """Print one run's figures; return the targets it missed (empty if met)."""
+    s = r["summary"]
+    n = int(s["plan"]["dwell_points"])
+    samples = int(s["smooth"]["samples"])
+    tim = s["timings_s"]
+    print(f"\n== {n:,} dwell points (disk radius {r['radius']:.0f} mm, spacing {SPACING_MM} mm, "
+          f"load average {r['load']:.1f} on {os.cpu_count()} cores) ==")
+    print(f"  whole job {r['wall']:.1f} s (child wall time, Python start-up and imports included); "
+          f"peak RSS {r['rss_gb']:.2f} GB")
+    print("  stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in tim.items()))
+    sm = tim.get("smooth", float("nan"))
+    ip = float(s["smooth"]["stats"].get("interpolation_s", float("nan")))
+    print(f"  machine samples: {samples:,} ({samples / n:.1f} per dwell point), {samples / sm / 1e6:.2f} M/s "
+          f"over the smoothing stage, {samples / ip / 1e6:.2f} M/s over the interpolation kernels "
+          f"({s['smooth']['stats'].get('schedule_passes', '?')} schedule passes)")
+    print(f"  {'file':<14s} {'MB':>9s} {'s':>7s} {'MB/s':>7s} {'lines':>11s} {'lines/pt':>9s} {'B/pt':>8s}")
+    sizes = {}
+    pngs = [0, 0.0, 0]
+    for w in r["writers"]:
+        p = Path(w["file"])
+        if not p.is_file():
+            continue
+        size = p.stat().st_size
+        sec = w["end"] - w["start"]
+        if p.suffix == ".png":  # the figures: one line for them all
+            pngs = [pngs[0] + size, pngs[1] + sec, pngs[2] + 1]
+            continue
+        sizes[p.name] = size
+        text = p.suffix in (".csv", ".xyz", ".nc", ".obj", ".json", ".toml", ".html")
+        lines = count_lines(p) if text else None
+        rate = size / 1e6 / sec if sec > 0 else float("inf")
+        print(f"  {p.name:<14s} {size / 1e6:9.2f} {sec:7.2f} {rate:7.1f} "
+              f"{lines if lines is not None else '-':>11} "
+              f"{(f'{lines / n:.2f}' if lines is not None else '-'):>9s} {size / n:8.1f}")
+    if pngs[2]:
+        print(f"  {str(pngs[2]) + ' PNGs':<14s} {pngs[0] / 1e6:9.2f} {pngs[1]:7.2f} {'':>7s} {'-':>11} {'-':>9s} "
+              f"{pngs[0] / n:8.1f}  (savefig only)")
+    ends = {Path(w["file"]).name: w["end"] for w in r["writers"]}
+    starts = {Path(w["file"]).name: w["start"] for w in r["writers"]}
+    if "path.csv" in starts and "job.toml" in ends:
+        line = f"  writing machine and run-folder files {ends['job.toml'] - starts['path.csv']:.2f} s"
+        if "report.html" in ends:
+            line += f", report {ends['report.html'] - ends['job.toml']:.2f} s (drawing included)"
+        print(line + " (from the writers' clocks)")
+    missed = []
+    gcode = sizes.get("toolpath.nc")
+    if gcode is not None and gcode / n > TARGET_GCODE_BYTES_PER_POINT:
+        missed.append(f"G-code {gcode / n:.0f} B per dwell point > {TARGET_GCODE_BYTES_PER_POINT:.0f}")
+    rate = samples / ip if ip > 0 else 0.0
+    if rate < TARGET_SAMPLES_PER_S:
+        missed.append(f"interpolation {rate / 1e6:.2f} M samples/s < {TARGET_SAMPLES_PER_S / 1e6:.0f} M/s")
+    if abs(math.log10(r["n_target"]) - 6) < 0.01:
+        if r["wall"] > TARGET_1E6_S:
+            missed.append(f"10^6 whole job {r['wall']:.0f} s > {TARGET_1E6_S:.0f} s "
+                          f"(by {r['wall'] - TARGET_1E6_S:.0f} s)")
+        if r["rss_gb"] > TARGET_1E6_RSS_GB:
+            missed.append(f"10^6 peak RSS {r['rss_gb']:.1f} GB > {TARGET_1E6_RSS_GB:.0f} GB")
+    if abs(math.log10(r["n_target"]) - 7) < 0.01 and r["rss_gb"] > TARGET_1E7_RSS_GB:
+        missed.append(f"10^7 peak RSS {r['rss_gb']:.1f} GB > {TARGET_1E7_RSS_GB:.0f} GB")
+    print("  targets: " + ("met" if not missed else "MISSED: " + "; ".join(missed)))
+    return missed
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", default="1e5,1e6", help="dwell-point counts, comma-separated (default 1e5,1e6)")
+    ap.add_argument("--huge", action="store_true", help="also 10^7 dwell points")
+    ap.add_argument("--no-report", action="store_true", help="pass --no-report (no HTML report)")
+    ap.add_argument("--keep", type=Path, help="keep meshes and outputs in this folder")
+    args = ap.parse_args()
+    sizes = [float(x) for x in args.sizes.split(",") if x]
+    if args.huge:
+        sizes.append(1e7)
+    extra = ["--no-report"] if args.no_report else []
+    ctx = tempfile.TemporaryDirectory(prefix="bench_job-") if args.keep is None else None
+    work = Path(ctx.name) if ctx else args.keep
+    work.mkdir(parents=True, exist_ok=True)
+    try:
+        t = time.perf_counter()
+        run_job(2e3, work, ["--no-report"])  # warm-up: numba's compile or cache load, imports
+        print(f"warm-up job (2,000 points): {time.perf_counter() - t:.1f} s")
+        missed = {}
+        for n in sizes:
+            missed[n] = show(run_job(n, work, extra))
+        print("\nsummary: " + "; ".join(f"{n:.0e}: {'targets met' if not m else 'missed ' + str(len(m))}"
+                                       for n, m in missed.items()))
+    finally:
+        if ctx:
+            ctx.cleanup()
+
+
+if __name__ == "__main__":
+    main()
