@@ -53,7 +53,7 @@ import math
 import numba
 import numpy as np
 
-from .spans import chord_deviation, chord_step, eval_span, grow, nudge, span_of, step_feed
+from .spans import chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
 
 __all__ = ["abam_kernel", "adams_weights", "GUARD", "CHORD_GUARD"]
 
@@ -92,10 +92,11 @@ def adams_weights(nodes):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True)
-def _inv_speed(breaks, coeffs, s, u, u1):  # pragma: no cover - numba
-    # g(u) = 1 / |C'(u)| at u (clamped to the end of the piece); inf where the curve has no speed
+def _inv_speed(breaks, coeffs, s, u, u1, w0, c1, w2):  # pragma: no cover - numba
+    # g(u) = 1 / |C'(u)| at u (clamped to the end of the piece); inf where the curve has no speed;
+    # w0, c1, w2: (d,) scratch buffers
     uu = min(u, u1)
-    _, c1, _ = eval_span(breaks, coeffs, span_of(breaks, s, uu), uu)
+    span_derivs(breaks, coeffs, span_of(breaks, s, uu), uu, w0, c1, w2)
     sp = 0.0
     for j in range(c1.shape[0]):
         sp += c1[j] * c1[j]
@@ -115,11 +116,20 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
     out_v = np.empty(cap)
+    # the kernel's own buffers (no allocation per step): the step's start and end points,
+    # C' and C'' at the start, scratch
+    pa = np.empty(d)
+    pb = np.empty(d)
+    c1 = np.empty(d)
+    c2 = np.empty(d)
+    w0 = np.empty(d)
+    w1 = np.empty(d)
+    w2 = np.empty(d)
     u = u0
     s = span_of(breaks, 0, u)
     r = 0
     nreg = region_feed.shape[0]
-    pa, c1, c2 = eval_span(breaks, coeffs, s, u)
+    span_derivs(breaks, coeffs, s, u, pa, c1, c2)
     out_u[0] = u
     for j in range(d):
         out_p[0, j] = pa[j]
@@ -165,7 +175,6 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
         last = False
         restart = False
         un = u
-        pb = pa
         for _ in range(60):
             if nh >= 4:
                 ab_nodes[0] = 0.0
@@ -174,7 +183,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
                 ab_nodes[3] = ab_nodes[2] - H[2] / ln
                 w = adams_weights(ab_nodes)
                 up = u + ln * (w[0] * G[0] + w[1] * G[1] + w[2] * G[2] + w[3] * G[3])
-                gp = _inv_speed(breaks, coeffs, s, up, u1)
+                gp = _inv_speed(breaks, coeffs, s, up, u1, w0, w1, w2)
                 am_nodes[0] = 1.0
                 am_nodes[1] = 0.0
                 am_nodes[2] = ab_nodes[1]
@@ -185,9 +194,9 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
                 gap = abs(un - up) * sp / ln
             else:
                 k1 = G[0]
-                k2 = _inv_speed(breaks, coeffs, s, u + 0.5 * ln * k1, u1)
-                k3 = _inv_speed(breaks, coeffs, s, u + 0.5 * ln * k2, u1)
-                k4 = _inv_speed(breaks, coeffs, s, u + ln * k3, u1)
+                k2 = _inv_speed(breaks, coeffs, s, u + 0.5 * ln * k1, u1, w0, w1, w2)
+                k3 = _inv_speed(breaks, coeffs, s, u + 0.5 * ln * k2, u1, w0, w1, w2)
+                k4 = _inv_speed(breaks, coeffs, s, u + ln * k3, u1, w0, w1, w2)
                 un = u + ln * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
                 gap = 0.0
             ok = math.isfinite(un) and un > u and gap <= GUARD
@@ -195,7 +204,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
                 if un >= u1:
                     un = u1
                 sn = span_of(breaks, s, un)
-                pb, _, _ = eval_span(breaks, coeffs, sn, un)
+                span_point(breaks, coeffs, sn, un, pb)
                 act = 0.0
                 for j in range(d):
                     act += (pb[j] - pa[j]) ** 2
@@ -213,10 +222,10 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
                     else:
                         ok = miss <= CHORD_GUARD
             if not ok:
-                un, pb, _ = chord_step(breaks, coeffs, s, u, u1, pa, ln, ln / sp)
+                un, _ = chord_step(breaks, coeffs, s, u, u1, pa, ln, ln / sp, pb)
                 restart = True
             last = un >= u1
-            err = chord_deviation(breaks, coeffs, s, u, un, pa, pb)
+            err = chord_deviation(breaks, coeffs, s, u, un, pa, pb, w0)
             if err <= tol:
                 break
             # shorten: the chord error grows with the square of the step
@@ -226,7 +235,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
             last = False
             restart = False
         if un <= u:
-            un, pb = nudge(breaks, coeffs, s, u, u0, u1)
+            un = nudge(breaks, coeffs, s, u, u0, u1, pb)
             last = un >= u1
             restart = True
         if restart:
@@ -239,7 +248,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
         out_v[n] = v
         n += 1
         sn = span_of(breaks, s, un)
-        _, c1, c2 = eval_span(breaks, coeffs, sn, un)
+        span_derivs(breaks, coeffs, sn, un, w0, c1, c2)
         g_new = 0.0
         for j in range(d):
             g_new += c1[j] * c1[j]
@@ -255,7 +264,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
             H[0] = ln
             nh = min(nh + 1, 4)
         u = un
-        pa = pb
+        pa, pb = pb, pa  # the step's end is the next step's start
         if last:
             break
     return out_u[:n], out_p[:n], out_v[:n], pred_max, fallbacks

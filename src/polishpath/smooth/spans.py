@@ -4,9 +4,10 @@ Every integrator (:mod:`.taylor`, :mod:`.abam`) advances the curve parameter one
 interpolation period at a time with the same building blocks, kept here so an
 integrator is only its own rule for the next parameter:
 
-* :func:`eval_span` — point, first and second derivative of one polynomial span
-  (the per-span form of :func:`polishpath.smooth.nurbs.span_polynomials`, paper
-  Eq. 13), by Horner's rule;
+* :func:`span_point` / :func:`span_derivs` — the point (and the first and
+  second derivative) of one polynomial span (the per-span form of
+  :func:`polishpath.smooth.nurbs.span_polynomials`, paper Eq. 13), by Horner's
+  rule, written into buffers the kernel owns;
 * :func:`span_of` — the span holding a parameter, walked from a nearby span;
 * :func:`step_feed` — the feed of one step: the schedule, cut by the chord-error
   limit of the local curvature, with a floor so the tool never stalls;
@@ -17,6 +18,12 @@ integrator is only its own rule for the next parameter:
   integrator holds under the tolerance by shortening the step;
 * :func:`nudge` — a tiny step over a point where the curve has no speed;
 * :func:`grow` — the output buffers, doubled when full.
+
+No function here allocates: every point and derivative goes into a (d,) buffer
+the caller passes (``out``, ``pb``, ``scratch``), so a kernel step costs a few
+dozen multiply-adds per curve evaluation and no heap traffic (allocating three
+small arrays per evaluation made the kernels several times slower). The
+arithmetic, and so every sample, is the same as with allocated arrays.
 
 Hand-written: the hot loops of the project's own interpolator (no well-kept
 library offers constant-period NURBS interpolation with a dwell-time schedule).
@@ -30,21 +37,34 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["eval_span", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge", "grow"]
+__all__ = ["span_point", "span_derivs", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge", "grow"]
 
 
 @numba.njit(cache=True)
-def eval_span(breaks, coeffs, s, u):  # pragma: no cover - numba
-    """C(u), C'(u), C''(u) on span ``s``: three (d,) arrays (mm, mm per unit u, ...)."""
+def span_point(breaks, coeffs, s, u, out):  # pragma: no cover - numba
+    """C(u) on span ``s`` into ``out`` (d,), mm (the same Horner sums as :func:`span_derivs`)."""
     h = breaks[s + 1] - breaks[s]
     t = (u - breaks[s]) / h
     p = coeffs.shape[1] - 1
-    d = coeffs.shape[2] - 1
-    val = np.empty(d)
-    d1 = np.zeros(d)
-    d2 = np.zeros(d)
+    d = out.shape[0]
+    for j in range(d):
+        out[j] = coeffs[s, p, j]
+    for k in range(p - 1, -1, -1):
+        for j in range(d):
+            out[j] = out[j] * t + coeffs[s, k, j]
+
+
+@numba.njit(cache=True)
+def span_derivs(breaks, coeffs, s, u, val, d1, d2):  # pragma: no cover - numba
+    """C(u), C'(u), C''(u) on span ``s`` into the (d,) buffers ``val``, ``d1``, ``d2`` (mm, mm per unit u, ...)."""
+    h = breaks[s + 1] - breaks[s]
+    t = (u - breaks[s]) / h
+    p = coeffs.shape[1] - 1
+    d = val.shape[0]
     for j in range(d):
         val[j] = coeffs[s, p, j]
+        d1[j] = 0.0
+        d2[j] = 0.0
     for k in range(p - 1, -1, -1):
         for j in range(d):
             d2[j] = d2[j] * t + 2.0 * d1[j]
@@ -53,7 +73,6 @@ def eval_span(breaks, coeffs, s, u):  # pragma: no cover - numba
     for j in range(d):
         d1[j] /= h
         d2[j] /= h * h
-    return val, d1, d2
 
 
 @numba.njit(cache=True)
@@ -96,19 +115,18 @@ def step_feed(sched, sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True)
-def chord_step(breaks, coeffs, s, u, u1, pa, ln, du):  # pragma: no cover - numba
+def chord_step(breaks, coeffs, s, u, u1, pa, ln, du, pb):  # pragma: no cover - numba
     """Parameter after ``u`` whose chord from ``pa = C(u)`` is ``ln`` (to 1e-6 relative).
 
     Starts from the guess ``u + du``, brackets the root of ``|C(u + du) - pa| = ln``
     and closes it by safeguarded secant / bisection; stops at ``u1`` when the
-    curve ends within the step.
+    curve ends within the step. ``C`` at the parameter reached is left in ``pb``
+    (d,), a buffer other than ``pa``.
 
     Returns
     -------
     un : float
         The parameter reached (``<= u1``).
-    pb : (d,) float
-        ``C(un)``.
     guess_error : float
         ``|chord(u + du) / ln - 1|`` of the starting guess (how far the predictor
         was off), or -1 when not measured (the guess reached ``u1``).
@@ -120,14 +138,15 @@ def chord_step(breaks, coeffs, s, u, u1, pa, ln, du):  # pragma: no cover - numb
     hi_c = 0.0
     guess_error = -1.0
     un = u
-    pb = pa
+    for j in range(d):
+        pb[j] = pa[j]
     for it in range(60):
         un = u + du
         if un >= u1:
             un = u1
             du = u1 - u
         sn = span_of(breaks, s, un)
-        pb, _, _ = eval_span(breaks, coeffs, sn, un)
+        span_point(breaks, coeffs, sn, un, pb)
         act = 0.0
         for j in range(d):
             act += (pb[j] - pa[j]) ** 2
@@ -155,21 +174,25 @@ def chord_step(breaks, coeffs, s, u, u1, pa, ln, du):  # pragma: no cover - numb
             if cand <= lo_du + 0.01 * width or cand >= hi_du - 0.01 * width:
                 cand = 0.5 * (lo_du + hi_du)
             du = cand
-    return un, pb, guess_error
+    return un, guess_error
 
 
 @numba.njit(cache=True)
-def chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb):  # pragma: no cover - numba
-    """Largest distance of the curve at 1/4, 1/2, 3/4 of ``[ua, ub]`` from the chord ``[pa, pb]``, mm."""
+def chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch):  # pragma: no cover - numba
+    """Largest distance of the curve at 1/4, 1/2, 3/4 of ``[ua, ub]`` from the chord ``[pa, pb]``, mm.
+
+    ``scratch`` is a (d,) buffer for the curve points.
+    """
     d = pa.shape[0]
     ll = 0.0
     for j in range(d):
         ll += (pb[j] - pa[j]) ** 2
     worst = 0.0
+    pm = scratch
     for q in range(1, 4):
         um = ua + 0.25 * q * (ub - ua)
         sm = span_of(breaks, s0, um)
-        pm, _, _ = eval_span(breaks, coeffs, sm, um)
+        span_point(breaks, coeffs, sm, um, pm)
         tt = 0.0
         for j in range(d):
             tt += (pm[j] - pa[j]) * (pb[j] - pa[j])
@@ -183,13 +206,13 @@ def chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb):  # pragma: no cover - n
 
 
 @numba.njit(cache=True)
-def nudge(breaks, coeffs, s, u, u0, u1):  # pragma: no cover - numba
+def nudge(breaks, coeffs, s, u, u0, u1, pb):  # pragma: no cover - numba
     """A step that made no progress in floating point (|C'| ~ 0 at a cusp): step over the
-    point by a parameter increment tiny on the curve's scale. Returns ``(un, C(un))``."""
+    point by a parameter increment tiny on the curve's scale. Returns ``un``; ``C(un)`` goes into ``pb``."""
     un = min(u + 1e-9 * (u1 - u0), u1)
     sn = span_of(breaks, s, un)
-    pb, _, _ = eval_span(breaks, coeffs, sn, un)
-    return un, pb
+    span_point(breaks, coeffs, sn, un, pb)
+    return un
 
 
 @numba.njit(cache=True)

@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from .spans import chord_deviation, chord_step, eval_span, grow, nudge, span_of, step_feed
+from .spans import chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
 
 __all__ = ["taylor_kernel"]
 
@@ -67,11 +67,19 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
     out_v = np.empty(cap)
+    # the kernel's own buffers (no allocation per step): C, C', C'' at the step's start,
+    # the step's end point, a scratch point
+    pa = np.empty(d)
+    pb = np.empty(d)
+    c0 = np.empty(d)
+    c1 = np.empty(d)
+    c2 = np.empty(d)
+    pm = np.empty(d)
     u = u0
     s = span_of(breaks, 0, u)
     r = 0
     nreg = region_feed.shape[0]
-    pa, _, _ = eval_span(breaks, coeffs, s, u)
+    span_point(breaks, coeffs, s, u, pa)
     out_u[0] = u
     for j in range(d):
         out_p[0, j] = pa[j]
@@ -88,7 +96,7 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
         while r < nreg - 1 and u >= region_b[r + 1]:
             r += 1
         s = span_of(breaks, s, u)
-        c0, c1, c2 = eval_span(breaks, coeffs, s, u)
+        span_derivs(breaks, coeffs, s, u, c0, c1, c2)
         sp2 = 0.0
         acc2 = 0.0
         dot = 0.0
@@ -103,16 +111,15 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
         ln = v * period_s
         last = False
         un = u
-        pb = pa
         for _ in range(60):
             du = ln / sp - ln * ln * dot / (2.0 * sp2 * sp2)
             if du <= 0.0:
                 du = ln / sp
-            un, pb, pred = chord_step(breaks, coeffs, s, u, u1, pa, ln, du)
+            un, pred = chord_step(breaks, coeffs, s, u, u1, pa, ln, du, pb)
             if pred > pred_max:
                 pred_max = pred
             last = un >= u1
-            err = chord_deviation(breaks, coeffs, s, u, un, pa, pb)
+            err = chord_deviation(breaks, coeffs, s, u, un, pa, pb, pm)
             if err <= tol:
                 break
             # shorten: the chord error grows with the square of the step
@@ -121,7 +128,7 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
             v = ln / period_s
             last = False
         if un <= u:
-            un, pb = nudge(breaks, coeffs, s, u, u0, u1)
+            un = nudge(breaks, coeffs, s, u, u0, u1, pb)
             last = un >= u1
         if n >= out_u.shape[0]:
             out_u, out_p, out_v = grow(out_u, out_p, out_v, n)
@@ -131,7 +138,7 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
         out_v[n] = v
         n += 1
         u = un
-        pa = pb
+        pa, pb = pb, pa  # the step's end is the next step's start
         if last:
             break
     return out_u[:n], out_p[:n], out_v[:n], pred_max, 0
