@@ -146,6 +146,34 @@ def test_constant_period_keeps_the_chord_error_under_tolerance():
     assert np.abs(steps / (feed[1:-1] / 60 * 0.002) - 1).max() < 0.02
 
 
+def test_compiled_chord_errors_match_a_direct_computation():
+    curve, _ = interpolate_nurbs(_walk(80, seed=4))
+    res = interpolate_constant_period(curve, 1200.0, 2.0, 5e-4)
+    u, pts = res["params"], res["samples"]
+    for n_check in (1, 3, 7):
+        f = np.arange(1, n_check + 1) / (n_check + 1)
+        pm = evaluate(curve, (u[:-1, None] + f[None, :] * (u[1:] - u[:-1])[:, None]).ravel()).reshape(len(u) - 1,
+                                                                                                    n_check, 3)
+        a, e = pts[:-1, None, :], (pts[1:] - pts[:-1])[:, None, :]
+        t = np.clip(((pm - a) * e).sum(-1) / (e * e).sum(-1), 0, 1)
+        want = np.linalg.norm(a + t[..., None] * e - pm, axis=-1).max(axis=1)
+        assert np.allclose(chord_errors(curve, u, pts, n_check=n_check), want, rtol=1e-9, atol=1e-15)
+    assert res["stats"]["chord_error_max"] == pytest.approx(chord_errors(curve, u, pts).max(), rel=1e-12)
+
+
+def test_planar_curve_runs_as_a_3d_one_with_z_zero():
+    xy = _walk(60, seed=6, d=2)
+    c2, _ = interpolate_nurbs(xy)
+    c3, _ = interpolate_nurbs(np.column_stack([xy, np.zeros(len(xy))]))
+    r2 = interpolate_constant_period(c2, 900.0, 2.0, 1e-3)
+    r3 = interpolate_constant_period(c3, 900.0, 2.0, 1e-3)
+    assert r2["samples"].shape[1] == 2
+    assert np.array_equal(r2["samples"], r3["samples"][:, :2]) and np.array_equal(r2["params"], r3["params"])
+    c4 = NurbsCurve(3, c2.knots, np.column_stack([c2.control_points, np.zeros((len(xy), 2))]), c2.weights)
+    with pytest.raises(SmoothingError, match="up to 3 dimensions"):
+        interpolate_constant_period(c4, 900.0, 2.0, 1e-3)
+
+
 def test_constant_period_without_curvature_limit_runs_at_the_feed():
     line = NurbsCurve(3, np.array([0, 0, 0, 0, 1, 1, 1, 1.0]), np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0.0]]))
     res = interpolate_constant_period(line, 600.0, 4.0, 1e-3)

@@ -53,7 +53,7 @@ import math
 import numba
 import numpy as np
 
-from .spans import chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
+from .spans import DIM, chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
 
 __all__ = ["abam_kernel", "adams_weights", "GUARD", "CHORD_GUARD"]
 
@@ -98,7 +98,7 @@ def _inv_speed(breaks, coeffs, s, u, u1, w0, c1, w2):  # pragma: no cover - numb
     uu = min(u, u1)
     span_derivs(breaks, coeffs, span_of(breaks, s, uu), uu, w0, c1, w2)
     sp = 0.0
-    for j in range(c1.shape[0]):
+    for j in range(DIM):
         sp += c1[j] * c1[j]
     return 1.0 / math.sqrt(sp) if sp > 0.0 else math.inf
 
@@ -111,7 +111,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
     is the largest ``|chord / (V T) - 1|`` of the Adams (or starting) step before
     any safeguard, ``fallbacks`` the number of safeguard steps.
     """
-    d = coeffs.shape[2] - 1
+    d = DIM
     cap = 1024
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))

@@ -38,6 +38,7 @@ from ..defaults import DEFAULT_INTEGRATOR
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve
 from .abam import abam_kernel
+from .spans import DIM, chord_errors_kernel
 from .nurbs import evaluate, span_polynomials
 from .taylor import taylor_kernel
 
@@ -90,6 +91,29 @@ def dwell_regions(dwell_params: np.ndarray, u_start: float, u_end: float) -> np.
     return np.concatenate([[u_start], 0.5 * (d[1:] + d[:-1]), [u_end]])
 
 
+def _kernel_coeffs(curve: NurbsCurve) -> tuple[np.ndarray, np.ndarray, int]:
+    """Span breaks and coefficients with :data:`.spans.DIM` = 3 coordinates (a planar curve gets z = 0), and d."""
+    breaks, coeffs, _ = span_polynomials(curve)
+    d = coeffs.shape[2] - 1
+    if d > DIM:
+        raise SmoothingError(f"Constant-period interpolation runs curves in up to {DIM} dimensions, got {d}.",
+                             "Give the curve's x, y (and z) coordinates only.")
+    if d < DIM:
+        padded = np.zeros(coeffs.shape[:2] + (DIM + 1,))
+        padded[:, :, :d] = coeffs[:, :, :d]
+        padded[:, :, DIM] = coeffs[:, :, d]
+        coeffs = padded
+    return breaks, np.ascontiguousarray(coeffs), d
+
+
+def _padded(points: np.ndarray) -> np.ndarray:
+    """(M, d) points as (M, 3), zero coordinates appended."""
+    d = points.shape[1]
+    if d == DIM:
+        return np.ascontiguousarray(points, dtype=np.float64)
+    return np.ascontiguousarray(np.concatenate([points, np.zeros((len(points), DIM - d))], axis=1), dtype=np.float64)
+
+
 def chord_errors(curve: NurbsCurve, sample_params: np.ndarray, samples: np.ndarray, n_check: int = 3) -> np.ndarray:
     """Largest distance of the curve from each chord between consecutive samples.
 
@@ -97,6 +121,7 @@ def chord_errors(curve: NurbsCurve, sample_params: np.ndarray, samples: np.ndarr
     ----------
     curve : NurbsCurve
     sample_params : (M,) float
+        Ascending.
     samples : (M, d) float
         Consecutive samples joined by straight moves.
     n_check : int
@@ -106,8 +131,17 @@ def chord_errors(curve: NurbsCurve, sample_params: np.ndarray, samples: np.ndarr
     -------
     err : (M - 1,) float64
         mm.
+
+    Notes
+    -----
+    A compiled loop over the steps (:func:`.spans.chord_errors_kernel`) for
+    non-rational curves in up to 3 dimensions, else vectorised evaluation.
     """
-    ua, ub = sample_params[:-1], sample_params[1:]
+    params = np.ascontiguousarray(sample_params, dtype=np.float64)
+    if np.all(curve.weights == 1.0) and np.asarray(samples).shape[1] <= DIM and len(params) > 0:
+        breaks, coeffs, _ = _kernel_coeffs(curve)
+        return chord_errors_kernel(breaks, coeffs, params, _padded(np.asarray(samples)), int(n_check))
+    ua, ub = params[:-1], params[1:]
     pa, pb = samples[:-1], samples[1:]
     e = pb - pa
     ll = np.einsum("ij,ij->i", e, e)
@@ -190,7 +224,7 @@ def interpolate_constant_period(
     kernel = integrator_kernel(integrator)
     if not np.all(curve.weights == 1.0):
         raise SmoothingError("Constant-period interpolation supports non-rational curves (weights 1) only.")
-    breaks, coeffs, _ = span_polynomials(curve)
+    breaks, cf, d = _kernel_coeffs(curve)
     u0, u1 = (float(curve.knots[0]), float(curve.knots[-1])) if u_range is None else map(float, u_range)
     T = period_ms / 1000.0
     vmax = (max_feed_mm_min if max_feed_mm_min is not None else np.inf) / 60.0
@@ -209,7 +243,6 @@ def interpolate_constant_period(
     else:
         rb = np.array([u0, u1])
         rfeed = np.array([feed_mm_min / 60.0])
-    cf = np.ascontiguousarray(coeffs)
     t_start = time.perf_counter()
     pu, pp, pv, pred_max, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm)
     passes = 1
@@ -239,10 +272,11 @@ def interpolate_constant_period(
                 best = (err, pu, pp, pv, n_fb)
         _, pu, pp, pv, n_fb = best
     t_interp = time.perf_counter() - t_start
+    pp = pp[:, :d]  # a planar curve ran with z = 0
     steps = np.linalg.norm(np.diff(pp, axis=0), axis=1)
     cmd = pv[1:] * T
     fl = (steps[:-1] - cmd[:-1]) / cmd[:-1] if len(steps) > 1 else np.zeros(0)
-    ce = chord_errors(curve, pu, pp) if len(pu) > 1 else np.zeros(0)
+    ce = chord_errors_kernel(breaks, cf, pu, _padded(pp), 3) if len(pu) > 1 else np.zeros(0)
     sched = np.minimum(rfeed[np.clip(np.searchsorted(rb, pu[:-1], side="right") - 1, 0, len(rfeed) - 1)], vmax)
     stats = {
         "n_samples": int(len(pu)),

@@ -17,10 +17,13 @@ integrator is only its own rule for the next parameter:
 * :func:`chord_deviation` — the measured chord error of a step, which every
   integrator holds under the tolerance by shortening the step;
 * :func:`nudge` — a tiny step over a point where the curve has no speed;
+* :func:`chord_errors_kernel` — the chord error of every step of a finished run
+  (the independent check the stats report);
 * :func:`grow` — the output buffers, doubled when full.
 
 No function here allocates: every point and derivative goes into a (d,) buffer
-the caller passes (``out``, ``pb``, ``scratch``), so a kernel step costs a few
+the caller passes (``out``, ``pb``, ``scratch``) and the curves have
+:data:`DIM` = 3 coordinates, so the loops unroll, so a kernel step costs a few
 dozen multiply-adds per curve evaluation and no heap traffic (allocating three
 small arrays per evaluation made the kernels several times slower). The
 arithmetic, and so every sample, is the same as with allocated arrays.
@@ -37,42 +40,69 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["span_point", "span_derivs", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge", "grow"]
+__all__ = ["DIM", "span_point", "span_derivs", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge",
+           "chord_errors_kernel", "grow"]
+
+
+DIM = 3
+"""Coordinates of the curves the kernels run (a compile-time constant, so the loops over
+coordinates unroll; :func:`~polishpath.smooth.interpolate.interpolate_constant_period`
+pads a planar curve with a zero coordinate)."""
 
 
 @numba.njit(cache=True)
 def span_point(breaks, coeffs, s, u, out):  # pragma: no cover - numba
-    """C(u) on span ``s`` into ``out`` (d,), mm (the same Horner sums as :func:`span_derivs`)."""
+    """C(u) on span ``s`` into ``out`` (3,), mm (the same Horner sums as :func:`span_derivs`)."""
     h = breaks[s + 1] - breaks[s]
     t = (u - breaks[s]) / h
     p = coeffs.shape[1] - 1
-    d = out.shape[0]
-    for j in range(d):
-        out[j] = coeffs[s, p, j]
+    x = coeffs[s, p, 0]
+    y = coeffs[s, p, 1]
+    z = coeffs[s, p, 2]
     for k in range(p - 1, -1, -1):
-        for j in range(d):
-            out[j] = out[j] * t + coeffs[s, k, j]
+        x = x * t + coeffs[s, k, 0]
+        y = y * t + coeffs[s, k, 1]
+        z = z * t + coeffs[s, k, 2]
+    out[0] = x
+    out[1] = y
+    out[2] = z
 
 
 @numba.njit(cache=True)
 def span_derivs(breaks, coeffs, s, u, val, d1, d2):  # pragma: no cover - numba
-    """C(u), C'(u), C''(u) on span ``s`` into the (d,) buffers ``val``, ``d1``, ``d2`` (mm, mm per unit u, ...)."""
+    """C(u), C'(u), C''(u) on span ``s`` into the (3,) buffers ``val``, ``d1``, ``d2`` (mm, mm per unit u, ...)."""
     h = breaks[s + 1] - breaks[s]
     t = (u - breaks[s]) / h
     p = coeffs.shape[1] - 1
-    d = val.shape[0]
-    for j in range(d):
-        val[j] = coeffs[s, p, j]
-        d1[j] = 0.0
-        d2[j] = 0.0
+    x = coeffs[s, p, 0]
+    y = coeffs[s, p, 1]
+    z = coeffs[s, p, 2]
+    x1 = 0.0
+    y1 = 0.0
+    z1 = 0.0
+    x2 = 0.0
+    y2 = 0.0
+    z2 = 0.0
     for k in range(p - 1, -1, -1):
-        for j in range(d):
-            d2[j] = d2[j] * t + 2.0 * d1[j]
-            d1[j] = d1[j] * t + val[j]
-            val[j] = val[j] * t + coeffs[s, k, j]
-    for j in range(d):
-        d1[j] /= h
-        d2[j] /= h * h
+        x2 = x2 * t + 2.0 * x1
+        x1 = x1 * t + x
+        x = x * t + coeffs[s, k, 0]
+        y2 = y2 * t + 2.0 * y1
+        y1 = y1 * t + y
+        y = y * t + coeffs[s, k, 1]
+        z2 = z2 * t + 2.0 * z1
+        z1 = z1 * t + z
+        z = z * t + coeffs[s, k, 2]
+    val[0] = x
+    val[1] = y
+    val[2] = z
+    d1[0] = x1 / h
+    d1[1] = y1 / h
+    d1[2] = z1 / h
+    hh = h * h
+    d2[0] = x2 / hh
+    d2[1] = y2 / hh
+    d2[2] = z2 / hh
 
 
 @numba.njit(cache=True)
@@ -131,7 +161,7 @@ def chord_step(breaks, coeffs, s, u, u1, pa, ln, du, pb):  # pragma: no cover - 
         ``|chord(u + du) / ln - 1|`` of the starting guess (how far the predictor
         was off), or -1 when not measured (the guess reached ``u1``).
     """
-    d = pa.shape[0]
+    d = DIM
     lo_du = 0.0
     lo_c = 0.0
     hi_du = -1.0
@@ -183,7 +213,7 @@ def chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch):  # pragma: no 
 
     ``scratch`` is a (d,) buffer for the curve points.
     """
-    d = pa.shape[0]
+    d = DIM
     ll = 0.0
     for j in range(d):
         ll += (pb[j] - pa[j]) ** 2
@@ -213,6 +243,41 @@ def nudge(breaks, coeffs, s, u, u0, u1, pb):  # pragma: no cover - numba
     sn = span_of(breaks, s, un)
     span_point(breaks, coeffs, sn, un, pb)
     return un
+
+
+@numba.njit(cache=True)
+def chord_errors_kernel(breaks, coeffs, params, samples, n_check):  # pragma: no cover - numba
+    """Largest distance of the curve from each chord between consecutive samples, (M - 1,) mm.
+
+    At ``n_check`` equally spaced interior parameters of each step (the
+    interpolator's own check points for ``n_check = 3``), walking the spans in
+    sample order; ``samples`` (M, 3).
+    """
+    m = params.shape[0]
+    out = np.zeros(max(m - 1, 0))
+    pm = np.empty(DIM)
+    s = span_of(breaks, 0, params[0]) if m else 0
+    for i in range(m - 1):
+        ua = params[i]
+        ub = params[i + 1]
+        ll = 0.0
+        for j in range(DIM):
+            ll += (samples[i + 1, j] - samples[i, j]) ** 2
+        worst = 0.0
+        for q in range(1, n_check + 1):
+            um = ua + q / (n_check + 1) * (ub - ua)
+            s = span_of(breaks, s, um)
+            span_point(breaks, coeffs, s, um, pm)
+            tt = 0.0
+            for j in range(DIM):
+                tt += (pm[j] - samples[i, j]) * (samples[i + 1, j] - samples[i, j])
+            t = min(max(tt / ll, 0.0), 1.0) if ll > 0 else 0.0
+            r = 0.0
+            for j in range(DIM):
+                r += (samples[i, j] + t * (samples[i + 1, j] - samples[i, j]) - pm[j]) ** 2
+            worst = max(worst, math.sqrt(r))
+        out[i] = worst
+    return out
 
 
 @numba.njit(cache=True)

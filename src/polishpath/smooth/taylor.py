@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from .spans import chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
+from .spans import DIM, chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
 
 __all__ = ["taylor_kernel"]
 
@@ -62,7 +62,7 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
     fallbacks : int
         Always 0 (the corrector is this integrator's own step).
     """
-    d = coeffs.shape[2] - 1
+    d = DIM
     cap = 1024
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
