@@ -134,3 +134,25 @@ def test_simulate_job_picks_the_plane_and_removes_the_depth(shallow_job, dome_jo
         simulate_job(dome_job.tool_path, dome_job.surface, dx_mm=0.001, plane="xy")
     with pytest.raises(ParameterError, match="flattening"):
         simulate_job(dome_job.tool_path, dome_job.surface, plane="unrolled")
+
+
+def test_area_ratio_map_is_smooth_and_follows_the_flattening(dome_job):
+    from polishpath import meshops
+    from polishpath.simulate.jobpath import area_ratio_map
+
+    fl = dome_job.flattening
+    dx = 0.05
+    lo = fl.uv.min(axis=0)
+    shape = (int(np.ptp(fl.uv[:, 1]) / dx) + 1, int(np.ptp(fl.uv[:, 0]) / dx) + 1)
+    r = area_ratio_map(fl, shape, lo, dx)
+    assert r.shape == shape and np.isfinite(r).all()
+    face = meshops.face_areas(fl.uv, fl.surface.faces) / meshops.face_areas(fl.surface.vertices, fl.surface.faces)
+    # no steps from the coarse grid or the triangles: neighbouring pixels differ by a small part of the range
+    span = face.max() - face.min()
+    assert np.abs(np.diff(r, axis=0)).max() < 0.05 * span and np.abs(np.diff(r, axis=1)).max() < 0.05 * span
+    # and the field follows the triangles' own ratio (at their centroids)
+    c = fl.uv[fl.surface.faces].mean(axis=1)
+    ij = np.rint((c - lo) / dx).astype(int)
+    at = r[ij[:, 1], ij[:, 0]]
+    assert np.corrcoef(at, face)[0, 1] > 0.9
+    assert np.median(np.abs(at / face - 1)) < 0.05

@@ -19,7 +19,7 @@ Two simulation planes (docs/simulation.md, "The job's own path"):
   flattening keeps angles (MABF), so footprints keep their shape; the time per
   plane area differs from that per part area by the local area ratio of the
   flattening, which :func:`simulate_job` corrects (depth on the part = depth in
-  the plane x plane area / part area of the triangle under each pixel).
+  the plane x the local plane area / part area, see :func:`area_ratio_map`).
 
 ``"auto"`` (the default of :func:`simulate_job`) takes ``"xy"`` when the part
 is a height field over x, y whose slopes stay under :data:`AUTO_XY_MAX_SLOPE_DEG`
@@ -301,23 +301,36 @@ def _pixel_centres(shape, origin, dx):
 
 
 def area_ratio_map(flattening: Flattening, shape, origin, dx: float, coarse_mm: float = 0.25) -> np.ndarray:
-    """Plane area / part area of the triangle under each pixel of the unrolled plane (1 outside the part).
+    """Plane area / part area of the flattening at each pixel of the unrolled plane, a smooth field.
 
-    Evaluated on a grid of about ``coarse_mm`` and expanded to the pixels
-    (the ratio is constant per triangle and triangles are larger than that).
+    The ratio of each vertex (plane area / part area of the triangles around
+    it) is interpolated linearly over the triangles on a grid of about
+    ``coarse_mm`` and bilinearly from there to the pixels, so neither the
+    triangles nor the coarse grid print a pattern into the depth; beyond the
+    part's edge the values of the nearest grid point on it continue.
     """
+    from scipy.ndimage import distance_transform_edt, map_coordinates
+
     from ..mapping import locate_points
 
-    f = flattening.surface.faces
+    uv, xyz, f = flattening.uv, flattening.surface.vertices, flattening.surface.faces
+    inc = meshops.vertex_face_incidence(len(uv), f)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = meshops.face_areas(flattening.uv, f) / meshops.face_areas(flattening.surface.vertices, f)
-    ratio = np.where(np.isfinite(ratio) & (ratio > 0), ratio, 1.0)
+        vr = (inc @ meshops.face_areas(uv, f)) / (inc @ meshops.face_areas(xyz, f))
+    vr = np.where(np.isfinite(vr) & (vr > 0), vr, 1.0)
     c = max(1, int(round(coarse_mm / dx)))
     ny, nx = shape
-    X, Y = _pixel_centres(((ny + c - 1) // c, (nx + c - 1) // c), origin, dx * c)
-    fid, _, _ = locate_points(flattening.uv, f, np.column_stack([X.ravel(), Y.ravel()]), tol=0.0)
-    coarse = np.where(fid >= 0, ratio[np.maximum(fid, 0)], 1.0).reshape(X.shape)
-    return np.repeat(np.repeat(coarse, c, axis=0), c, axis=1)[:ny, :nx]
+    X, Y = _pixel_centres(((ny - 1) // c + 2, (nx - 1) // c + 2), origin, dx * c)
+    fid, bary, _ = locate_points(uv, f, np.column_stack([X.ravel(), Y.ravel()]), tol=0.0)
+    coarse = np.einsum("ij,ij->i", bary, vr[f[np.maximum(fid, 0)]]).reshape(X.shape)
+    out = (fid < 0).reshape(X.shape)
+    if out.all():
+        return np.ones(shape)
+    if out.any():  # beyond the edge: the value of the nearest grid point on the part
+        near = distance_transform_edt(out, return_distances=False, return_indices=True)
+        coarse = coarse[near[0], near[1]]
+    jj, ii = np.mgrid[0:ny, 0:nx]
+    return map_coordinates(coarse, [jj / c, ii / c], order=1, mode="nearest")
 
 
 def _region_mask(region: Region, shape, origin, dx, inset: float) -> np.ndarray:
