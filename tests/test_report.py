@@ -378,3 +378,30 @@ def test_a_malformed_array_costs_one_figure_not_the_report(tmp_path, monkeypatch
     assert "Not shown: could not be drawn from this run" in html
     assert "Interactive view could not be drawn" in html  # the 3D view, from the broken xyz
     assert 'data-fig="figdata-planar_2d"' in html  # the planar view is unharmed
+
+
+def test_every_figure_of_a_large_path_is_decimated_and_the_page_says_so(tmp_path, monkeypatch):
+    from polishpath.report import figures
+
+    d = make_run(tmp_path / "big", n_steps=300)
+    run = load_run(d)
+    monkeypatch.setattr(figures, "MAX_PATH_POINTS_PNG", 100)
+    monkeypatch.setattr(figures, "MAX_PATH_POINTS_PNG_3D", 50)
+    monkeypatch.setattr(figures, "FEED_BINS", 10)
+    planar = figures.fig_planar_path(run)
+    assert "100 of 301 dwell points" in figures.display_note(planar)
+    assert len(planar.axes[0].collections[0].get_segments()) <= 100
+    assert "50 of 301 dwell points" in figures.display_note(figures.fig_surface_path(run))
+    n = len(run.get("feed_mm_min"))
+    if n > 20:
+        assert "10 bins" in figures.display_note(figures.fig_feed_rate(run))
+    out = write_report(d)
+    page = out["report"].read_text()
+    assert "Drawn: 100 of 301 dwell points" in page and "Drawn: 50 of 301 dwell points" in page
+
+
+def test_a_small_path_is_drawn_whole_without_a_note(run_dir):
+    from polishpath.report import figures
+
+    run = load_run(run_dir)
+    assert figures.display_note(figures.fig_planar_path(run)) is None

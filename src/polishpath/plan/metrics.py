@@ -11,6 +11,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from .. import progress
 from ..pathops import DIRECTION_NAMES, sector_codes, step_starts
 from ..types import PlanarPath, Region
 from .dwell import uv_to_grid
@@ -206,6 +207,7 @@ def path_metrics(path: PlanarPath, region: Region | None = None) -> dict:
         "longest_straight_mm": float(best_mm),
         "crossings": count_crossings(uv, path.pieces),
     }
+    progress.update(len(uv), None, "dwell points (crossings counted)")
     if region is not None:
         r, c = largest_empty_disc(uv, region)
         out["largest_empty_disc"] = r

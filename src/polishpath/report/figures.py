@@ -4,6 +4,13 @@ Each ``fig_*`` function takes a :class:`~polishpath.report.rundata.RunData` and
 returns a matplotlib :class:`~matplotlib.figure.Figure`, or a string saying why
 it cannot be drawn (a missing array). No pyplot state is used, so the functions
 are safe to call from any thread and under any backend.
+
+Every figure draws at most a fixed amount, whatever the size of the run: the
+path figures an evenly spaced subset of the dwell points
+(:data:`MAX_PATH_POINTS_PNG`, :data:`MAX_PATH_POINTS_PNG_3D`), the mesh figures
+a coarsened mesh, the feed a min/max/mean envelope of :data:`FEED_BINS` bins,
+the histograms their bins. A figure that drew less than the run holds says so
+in its ``display_note`` (:func:`display_note`), which the report prints under it.
 """
 
 from __future__ import annotations
@@ -17,10 +24,30 @@ from ..pathops import DIRECTION_NAMES, direction_counts, piece_index, step_lengt
 from .rundata import RunData, angle_error_deg, area_distortion, cluster_mesh, decimate_indices
 
 #: display limits (the files keep every point)
-MAX_PATH_POINTS_PNG = 200_000
+MAX_PATH_POINTS_PNG = 100_000
+MAX_PATH_POINTS_PNG_3D = 20_000
 MAX_FACES_PNG_3D = 6_000
 MAX_FACES_PNG_2D = 400_000
+FEED_BINS = 2000
 DPI = 130
+
+
+def display_note(fig) -> str | None:
+    """What a figure left out to stay fast and small (None: it drew everything)."""
+    return getattr(fig, "display_note", None)
+
+
+def _say(fig, note: str | None):
+    if note:
+        fig.display_note = note
+    return fig
+
+
+def _points_note(shown: int, total: int, what: str = "dwell points") -> str | None:
+    if shown >= total:
+        return None
+    return (f"Drawn: {shown:,} of {total:,} {what}, evenly spaced along the path (display only: "
+            "the path files hold every point).")
 
 
 def _figure(w: float = 6.4, h: float = 4.8):
@@ -45,7 +72,7 @@ def _path_segments(points: np.ndarray, pieces: np.ndarray | None, max_points: in
     same = piece_of[1:] == piece_of[:-1]
     seg = np.stack([p[:-1], p[1:]], axis=1)[same]
     order = (idx[:-1][same] / max(n - 1, 1)).astype(float)
-    return seg, order, len(idx) < n
+    return seg, order, len(idx)
 
 
 def fig_planar_path(run: RunData):
@@ -57,7 +84,8 @@ def fig_planar_path(run: RunData):
         return _missing("plan_uv")
     fig = _figure(6.4, 6.0)
     ax = fig.add_subplot()
-    seg, order, dec = _path_segments(uv, run.get("plan_pieces"), MAX_PATH_POINTS_PNG)
+    seg, order, shown = _path_segments(uv, run.get("plan_pieces"), MAX_PATH_POINTS_PNG)
+    dec = shown < len(uv)
     lw = float(np.clip(300.0 / math.sqrt(max(len(uv), 1)), 0.15, 1.5))
     lc = LineCollection(seg, array=order, cmap="viridis", linewidths=lw)
     ax.add_collection(lc)
@@ -81,7 +109,7 @@ def fig_planar_path(run: RunData):
     ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
     cb = fig.colorbar(lc, ax=ax, shrink=0.7)
     cb.set_label("path order (0 = start, 1 = end)")
-    return fig
+    return _say(fig, _points_note(shown, len(uv)))
 
 
 def _flat_mesh(run: RunData, values: np.ndarray, label: str, title: str, cmap: str, vlim):
@@ -106,7 +134,8 @@ def _flat_mesh(run: RunData, values: np.ndarray, label: str, title: str, cmap: s
     ax.set_title(title)
     cb = fig.colorbar(pc, ax=ax, shrink=0.8)
     cb.set_label(label)
-    return fig
+    return _say(fig, f"Drawn on a coarsened mesh: {len(fd):,} of {len(faces):,} faces (display only)."
+                if len(fd) < len(faces) else None)
 
 
 def fig_angle_error(run: RunData):
@@ -172,7 +201,8 @@ def fig_surface_path(run: RunData):
         vd, fd, _ = cluster_mesh(v, f, MAX_FACES_PNG_3D)
         ax.plot_trisurf(vd[:, 0], vd[:, 1], vd[:, 2], triangles=fd, color="0.8", alpha=0.35,
                         linewidth=0, antialiased=False, shade=True, zorder=1)
-    seg, order, dec = _path_segments(xyz, run.get("plan_pieces"), 60_000)
+    seg, order, shown = _path_segments(xyz, run.get("plan_pieces"), MAX_PATH_POINTS_PNG_3D)
+    dec = shown < len(xyz)
     lw = float(np.clip(200.0 / math.sqrt(max(len(xyz), 1)), 0.2, 1.5))
     lc = Line3DCollection(seg, array=order, cmap="viridis", linewidths=lw, zorder=2)
     ax.add_collection3d(lc)
@@ -192,7 +222,10 @@ def fig_surface_path(run: RunData):
     ax.set_title(title)
     cb = fig.colorbar(lc, ax=ax, shrink=0.6, pad=0.1)
     cb.set_label("path order (0 = start, 1 = end)")
-    return fig
+    note = _points_note(shown, len(xyz))
+    if v is not None and f is not None and len(fd) < len(f):
+        note = (note or "") + f" The part is drawn with {len(fd):,} of its {len(f):,} triangles."
+    return _say(fig, note.strip() if note else None)
 
 
 def fig_step_lengths(run: RunData):
@@ -294,8 +327,11 @@ def fig_feed_rate(run: RunData):
     else:
         x_full = np.arange(n, dtype=float)
         xlabel = "interpolation sample"
-    nb = 2000
+    nb = FEED_BINS
+    note = None
     if n > 2 * nb:
+        note = (f"Drawn: the min, max and mean of {nb:,} bins of about {n // nb:,} samples each "
+                f"({n:,} samples in all; display only: the machine files hold every sample).")
         edges = np.linspace(0, n, nb + 1).astype(np.int64)
         lo = np.minimum.reduceat(feed, edges[:-1])
         hi = np.maximum.reduceat(feed, edges[:-1])
@@ -312,7 +348,7 @@ def fig_feed_rate(run: RunData):
     fl = (float(np.max(feed) - np.min(feed)) / m * 100) if m else float("nan")
     ax.set_title(f"Feed rate: mean {m:.4g} mm/min, range {np.min(feed):.4g}..{np.max(feed):.4g} "
                  f"({fl:.3g}% of mean), {n:,} samples", fontsize=9)
-    return fig
+    return _say(fig, note)
 
 
 #: name -> (function, caption); the order is the order in the report

@@ -293,7 +293,8 @@ def _fig_block(name: str, result: Any, caption: str, png: Path | None, embed: bo
     else:
         img = ""
     link = f'<span class="note">PNG: <code>figures/{_esc(png.name)}</code></span>'
-    return f'<figure id="fig-{_esc(name)}">{img}<figcaption>{_esc(caption)} {link}</figcaption></figure>'
+    shown = f' <span class="note">{_esc(result)}</span>' if isinstance(result, str) and result else ""
+    return f'<figure id="fig-{_esc(name)}">{img}<figcaption>{_esc(caption)}{shown} {link}</figcaption></figure>'
 
 
 def _interactive_block(key: str, fn, run: RunData, scripts: list[str]) -> tuple[str, bool]:
@@ -472,14 +473,16 @@ def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, 
     InputError
         ``out_dir`` is not a polishpath run folder (no ``summary.json`` or ``run.npz``).
     """
-    from .figures import FIGURES, save_png
+    from .. import progress
+    from .figures import FIGURES, display_note, save_png
 
     run = load_run(out_dir)
     fig_dir = run.folder / "figures"
     fig_dir.mkdir(exist_ok=True)
     written: dict[str, Path] = {}
     drawn: dict[str, tuple[Any, Path | None]] = {}
-    for name, (fn, _caption) in FIGURES.items():
+    for k, (name, (fn, _caption)) in enumerate(FIGURES.items()):
+        progress.update(k, len(FIGURES), "figures")
         try:
             result = fn(run)
         except Exception as e:  # a malformed array must not cost the whole report
@@ -494,7 +497,7 @@ def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, 
         png = fig_dir / f"{name}.png"
         save_png(result, png)
         result.clear()
-        drawn[name] = (None, png)
+        drawn[name] = (display_note(result), png)
         written[f"figure_{name}"] = png
     page = build_html(run, drawn, compress_js=compress_js)
     report = run.folder / "report.html"

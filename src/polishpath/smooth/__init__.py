@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from .. import progress
 from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
 from ..errors import ParameterError, SmoothingError
 from ..pathops import step_mask
@@ -336,6 +337,8 @@ def smooth(
         feeds.append(res["feed_mm_min"])
         dwell_err.append(res["dwell_time_error"])
         spieces.append(spieces[-1] + len(res["params"]))
+        if len(curves) > 1:
+            progress.update(int(pieces[k + 1]), n, f"dwell points ({spieces[-1]:,} samples)")
         for key, val in res["stats"].items():
             if key in ("n_samples", "duration_s", "curve_length", "interpolation_s"):
                 agg[key] = agg.get(key, 0) + val

@@ -34,6 +34,7 @@ import time
 
 import numpy as np
 
+from .. import progress
 from ..defaults import DEFAULT_INTEGRATOR
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve
@@ -246,6 +247,7 @@ def interpolate_constant_period(
     t_start = time.perf_counter()
     pu, pp, pv, pred_max, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm)
     passes = 1
+    progress.update(len(pu), None, "samples in schedule pass 1")
     if dwell_times is not None:
         # Where the curvature limit slows the tool, a region takes longer than wanted; raise
         # that region's feed on its unconstrained part (damped fixed point
@@ -267,6 +269,7 @@ def interpolate_constant_period(
             pu, pp, pv, pm, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm)
             pred_max = max(pred_max, pm)
             passes += 1
+            progress.update(len(pu), None, f"samples in schedule pass {passes}")
             rel, err = worst(pu)
             if err < best[0]:
                 best = (err, pu, pp, pv, n_fb)
