@@ -412,7 +412,7 @@ def test_mabf_pcg_stall_falls_back_to_direct():
 def test_schur_blocks_and_solve_match_the_explicit_matrices(weights):
     """The matrix-free reduced system (numba pattern, face-by-face products, Schur-complement
     CG) against S = J2 P J2^T built with scipy from the paper's B and wheel matrices. If this
-    fails, a kernel in flatten/mabf.py no longer computes what its comment says."""
+    fails, a kernel in flatten/schur.py no longer computes what its comment says."""
     import scipy.sparse as sp
 
     from polishpath.flatten.mabf import _Schur
