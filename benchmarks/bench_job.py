@@ -174,12 +174,13 @@ def show(r: dict) -> list[str]:
     if pngs[2]:
         print(f"  {str(pngs[2]) + ' PNGs':<14s} {pngs[0] / 1e6:9.2f} {pngs[1]:7.2f} {'':>7s} {'-':>11} {'-':>9s} "
               f"{pngs[0] / n:8.1f}  (savefig only)")
-    ends = {Path(w["file"]).name: w["end"] for w in r["writers"]}
-    starts = {Path(w["file"]).name: w["start"] for w in r["writers"]}
-    if "path.csv" in starts and "job.toml" in ends:
-        line = f"  writing machine and run-folder files {ends['job.toml'] - starts['path.csv']:.2f} s"
-        if "report.html" in ends:
-            line += f", report {ends['report.html'] - ends['job.toml']:.2f} s (drawing included)"
+    files = [w for w in r["writers"] if Path(w["file"]).suffix != ".png" and Path(w["file"]).name != "report.html"]
+    if files:  # the machine and run-folder files, in whatever order the job writes them
+        first, last = min(w["start"] for w in files), max(w["end"] for w in files)
+        line = f"  writing machine and run-folder files {last - first:.2f} s"
+        report = [w["end"] for w in r["writers"] if Path(w["file"]).name == "report.html"]
+        if report:
+            line += f", report {report[-1] - last:.2f} s (drawing included)"
         print(line + " (from the writers' clocks)")
     missed = []
     gcode = sizes.get("toolpath.nc")
