@@ -1,6 +1,7 @@
 """Architecture rule: the data flows one way, and stages meet only through plain data.
 
-    core -> surfaces -> flatten -> plan -> mapping -> smooth -> schedule -> export / psd / simulate / report
+    core -> surfaces -> flatten -> plan -> mapping -> psd (readers) -> dwell -> smooth -> schedule
+         -> export / simulate / report
          -> config -> pipeline -> paper -> cli
 
 Every module and package under ``src/polishpath`` is a unit of one of these
@@ -36,8 +37,9 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
 CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "provenance", "defaults", "_version"}
-# every other unit, upstream first
-ORDER = ["surfaces", "flatten", "plan", "mapping", "smooth", "schedule", "export", "psd", "simulate", "report",
+# every other unit, upstream first; psd (measurement readers, PSD maths: core imports only) sits before
+# dwell (figuring), which reads error maps with it
+ORDER = ["surfaces", "flatten", "plan", "mapping", "psd", "dwell", "smooth", "schedule", "export", "simulate", "report",
          "config", "pipeline", "paper", "cli", "__main__", "__init__"]
 # pairs (unit, upstream unit) that may not meet although the order would allow it
 INDEPENDENT = {("plan", "flatten"), ("flatten", "surfaces"), ("plan", "surfaces")}

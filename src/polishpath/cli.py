@@ -581,6 +581,13 @@ def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> Non
     if "duration_s" in sm:
         typer.echo(f"  machine path: {summary['smooth']['samples']} points at {summary['smooth']['period_ms']:g} ms, "
                    f"{sm['duration_s'] / 60:.1f} min, chord error <= {1000 * sm.get('chord_error_max', float('nan')):.3g} um")
+    fg = summary.get("figuring")
+    if fg:
+        typer.echo(f"  figuring ({fg['solver']}): error {fg['initial_rms_nm']:.3g} nm RMS -> predicted residual "
+                   f"{fg['residual_rms_nm']:.3g} nm RMS ({fg['residual_pv_nm']:.3g} nm PV), dwell total "
+                   f"{fg['total_time_s'] / 60:.1f} min")
+        if fg.get("uncorrectable_note"):
+            typer.echo(f"  {fg['uncorrectable_note']}")
     m = p.get("metrics", {})
     for key in ("coverage", "directions_used", "crossings"):
         if key in m:

@@ -123,6 +123,13 @@ class JobConfig:
         the feeds become those of the tool centre, so every segment keeps its planned time.
     dwell_times : str or None
         CSV of per-dwell-point times (s), in path order.
+    error_map, error_units, tif : str or None
+        Deterministic figuring (docs/figuring.md): the measured error to remove
+        (a map the ``psd`` readers take, or a Zernike ``.toml``), its height unit
+        when the file does not say, and the TIF spec; the dwell times are then solved.
+    error_map_options : dict or None
+        The ``[error_map]`` table of a job TOML (alignment, solver options; keys in
+        :data:`ERROR_MAP_KEYS`).
     report : bool
         Write ``report.html`` and PNG figures.
     max_points : int
@@ -184,6 +191,19 @@ class JobConfig:
                                      "radius along the normal) with feeds that keep every segment's planned time.",
                                 nonnegative=True)
     dwell_times: str | None = option(None, "--dwell-times", help="CSV of per-dwell-point times (s) in path order.")
+    error_map: str | None = option(
+        None, "--error-map",
+        help="Measured surface error to remove (.datx, grid / x y z text, CSV, Zernike .toml): the dwell times are "
+             "solved from it and the TIF (docs/figuring.md); alignment etc. in job.toml's [error_map] table.")
+    error_units: str | None = option(None, "--error-units", choices=("nm", "um", "mm", "m", "angstrom"),
+                                     help="Height unit of the error map when the file does not say: nm, um, mm, m, "
+                                          "angstrom.")
+    tif: str | None = option(
+        None, "--tif",
+        help="TIF for --error-map: gaussian:fwhm=MM,peak_rate=NM_PER_S | measured:file=PATH | "
+             "rotating:rpm=RPM,radius=MM,peak_rate=NM_PER_S (default: the rotating sponge).")
+    error_map_options: dict[str, Any] | None = option(
+        None, help="The [error_map] table of a job TOML (docs/figuring.md).")
     report: bool = option(True, "--report/--no-report", help="Write report.html and the PNG figures (default: yes).")
     max_points: int = option(5_000_000, "--max-points", help="Refuse to plan more dwell points than this.",
                              positive=True)
@@ -215,6 +235,10 @@ class JobConfig:
         """Read a job TOML (``[job]`` table, or top-level keys); ``overrides`` (not None) win."""
         return parse_job(toml=path, **overrides)
 
+
+#: keys of the ``[error_map]`` table (docs/figuring.md)
+ERROR_MAP_KEYS = frozenset({"offset_mm", "rotation_deg", "flip", "scale", "lateral_unit", "dx_mm", "bias_nm", "method",
+                            "smoothness", "ca_margin_mm", "max_uncovered", "extension_weight", "max_feed_mm_min"})
 
 #: the fields of :class:`JobConfig` by name
 FIELDS: dict[str, dataclasses.Field] = {f.name: f for f in dataclasses.fields(JobConfig)}
@@ -262,6 +286,9 @@ def _check(f: dataclasses.Field, v: Any) -> Any:
         kind = "text"
     elif typing.get_origin(t) is dict:
         ok = isinstance(v, dict) and all(isinstance(k, str) for k in v)
+        if ok and f.name == "error_map_options" and set(v) - ERROR_MAP_KEYS:
+            raise SpecError(f"unknown [error_map] option(s) {', '.join(sorted(set(v) - ERROR_MAP_KEYS))}.",
+                            f"Options: {', '.join(sorted(ERROR_MAP_KEYS))}.")
         kind = "a table of settings"
         v = dict(v) if ok else v
     else:  # the (u, v) pair
@@ -337,7 +364,9 @@ def _read_job_toml(p: Path) -> dict[str, Any]:
         if not isinstance(post, dict):
             raise SpecError(f"{p.name}: [post] must be a table of post-processor settings.")
         kw["post_settings"] = {**post, **(kw.get("post_settings") or {})}
-    for key in ("surface", "dwell_times", "machine"):  # a relative path beside the file is relative to it
+    if isinstance(data.get("error_map"), dict):  # the [error_map] table beside [job]
+        kw["error_map_options"] = {**data["error_map"], **(kw.get("error_map_options") or {})}
+    for key in ("surface", "dwell_times", "machine", "error_map"):  # a relative path beside the file is relative to it
         v = kw.get(key)
         if isinstance(v, str) and not Path(v).is_absolute() and (p.parent / v).exists():
             kw[key] = str(p.parent / v)

@@ -102,6 +102,14 @@ class MappingError(PolishPathError):
     """A planar point could not be carried back to the surface."""
 
 
+class FiguringError(PolishPathError):
+    """Dwell times could not be solved from the error map and TIF (infeasible, not converged)."""
+
+
+class CoverageError(FiguringError, InputError):
+    """The measured error map does not cover the part's clear aperture."""
+
+
 class SmoothingError(PolishPathError):
     """The smoothing curve could not be built or interpolated."""
 

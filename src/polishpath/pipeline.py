@@ -25,6 +25,7 @@ import numpy as np
 from . import progress
 from ._version import __version__
 from .config import JobConfig, parse_job
+from .defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
 from .errors import MappingError, ParameterError, PlanningError, SpacingTooLargeError
 from .fileio import atomic_open, jsonable
 from .pathops import step_mask
@@ -50,6 +51,8 @@ class Job:
     plan_metrics: dict[str, Any] = field(default_factory=dict)
     program: dict[str, Any] = field(default_factory=dict)  # what the post wrote (Job.save)
     schedule: dict[str, Any] = field(default_factory=dict)  # the feed schedule under the machine profile
+    figuring: Any = None
+    figuring_prediction: dict[str, Any] | None = None
 
     @property
     def seed(self) -> int | None:
@@ -105,6 +108,12 @@ class Job:
         if self.program:
             s["post"] = self.program
             s["machining_time_s"] = self.program.get("machining_time_s")
+        if self.figuring is not None:
+            from .dwell import figuring_summary
+
+            s["figuring"] = figuring_summary(self.figuring, self.figuring_prediction)
+            s["dwell_time_note"] = ("Dwell times solved from the measured error map and the TIF (docs/figuring.md); "
+                                    "summary.figuring holds the predicted residual of the machine-timed path.")
         return jsonable(s)
 
     def save(self, out_dir: str | Path, *, report: bool | None = None) -> dict[str, Path]:
@@ -146,13 +155,26 @@ class Job:
             written["flat_obj"] = out / "flat.obj"
             written.update(write_run(out, surface=self.surface, flattening=self.flattening, region=self.region,
                                      planar=self.planar, surface_path=self.surface_path, tool_path=self.tool_path,
-                                     summary=self.summary(), config=self._job_config_with_seed().to_dict()))
+                                     summary=self.summary(), config=self._job_config_with_seed().to_dict(),
+                                     extra_arrays=self._figuring_arrays()))
         if report if report is not None else self.config.report:
             from .report import write_report
 
             with progress.stage("writing report", self.timings, "report"):
                 written.update(write_report(out))
         return written
+
+    def _figuring_arrays(self) -> dict[str, Any]:
+        """The figuring maps for ``run.npz`` (runfolder.FIGURING_ARRAY_KEYS); empty without figuring."""
+        if self.figuring is None:
+            return {}
+        t, pr = self.figuring.target, self.figuring_prediction
+        g = t.grid
+        return {"figuring_error_nm": t.error_nm, "figuring_inside": t.inside, "figuring_target_nm": t.removal_nm,
+                "figuring_weight": t.weight, "figuring_removal_nm": pr["removal_nm"],
+                "figuring_ideal_removal_nm": self.figuring.ideal_removal_nm, "figuring_residual_nm": pr["residual_nm"],
+                "figuring_grid": np.array([g.origin_mm[0], g.origin_mm[1], g.pitch_mm]),
+                "figuring_times_s": self.figuring.times_s, "figuring_t_min_s": self.figuring.solution.t_min_s}
 
     def _job_config_with_seed(self) -> JobConfig:
         return dataclasses.replace(self.config, seed=self.seed)
@@ -421,6 +443,10 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     cfg = parse_job(base=config, **options)
     cfg = dataclasses.replace(cfg, seed=resolve_seed(cfg.seed))
     machine = check_machine_output(cfg)
+    if (cfg.tif or cfg.error_map_options or cfg.error_units) and not cfg.error_map:
+        raise ParameterError("--tif, --error-units and [error_map] options need --error-map (the measured error to remove).")
+    if cfg.error_map and cfg.dwell_times:
+        raise ParameterError("give --error-map (times solved from the error) or --dwell-times (times given), not both.")
     timings: dict[str, float] = {}
 
     with progress.stage("reading surface", timings, "surface"):
@@ -443,15 +469,42 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         from .export import read_dwell_times
 
         smooth_kw["dwell_times"] = read_dwell_times(cfg.dwell_times, n_points=planar.n_points)
+    fig = None
+    if cfg.error_map:
+        with progress.stage("figuring: dwell times from the error map", timings, "dwell"):
+            fig, max_feed = figure_for_job(cfg, surface, spath)
+        smooth_kw["dwell_times"] = fig.times_s
+        smooth_kw["max_feed_mm_min"] = max_feed
     with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth"):
         tool = smooth(spath, surface=surface, **smooth_kw)
+    prediction = None
+    if fig is not None:
+        from .dwell import delivered_times, predict_residual
+
+        # where the machine-timed path could not go as fast as a solved time asks (turns), its delivered time
+        # becomes that point's minimum and the times are solved once more: the files carry times it can run
+        got = delivered_times(tool.dwell_params, tool.sample_params, tool.period_ms)
+        slow = got > fig.times_s * 1.01 + 1e-3 * tool.period_ms
+        if slow.any():
+            with progress.stage("figuring: re-solving with the machine's minimum times", timings, "dwell_resolve"):
+                fig, _ = figure_for_job(cfg, surface, spath, t_min_s=np.where(slow, got, 0.0))
+            smooth_kw["dwell_times"] = fig.times_s
+            with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth_resolve"):
+                tool = smooth(spath, surface=surface, **smooth_kw)
+            fig.stats["resolved_slow_points"] = int(slow.sum())
     sched: dict[str, Any] = {}
     if machine is not None:
         from .schedule import schedule_feeds
 
         with progress.stage(f"feed schedule under {machine.name}", timings, "schedule"):
             tool, sched = schedule_feeds(tool, machine)
-    return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched)
+    if fig is not None:  # the residual of what the machine runs: the final (scheduled) samples
+        from .dwell import predict_residual
+
+        with progress.stage("figuring: residual of the machine-timed path", timings, "dwell_residual"):
+            prediction = predict_residual(fig, tool.samples, tool.period_ms)
+    return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched,
+               figuring=fig, figuring_prediction=prediction)
 
 
 def machine_profile(cfg: JobConfig):
@@ -484,6 +537,43 @@ def check_machine_output(cfg: JobConfig):
             "(the xyz file runs at a constant period, path.csv holds dwell times).",
             "Use a G-code post (--post linuxcnc or fanuc) with --machine, or leave --machine out.")
     return machine
+
+
+def build_tif(spec: str | None):
+    """The figuring TIF of a ``--tif`` spec; the rotating tool comes from the simulation's model."""
+    from .dwell import parse_tif_spec, tif_from_spec
+    from .simulate import rotating_tool_tif
+
+    if spec is None:
+        return rotating_tool_tif()
+    kind, p = parse_tif_spec(spec)
+    if kind != "rotating":
+        return tif_from_spec(spec)
+    kw = {"rpm": p.get("rpm"), "contact_radius_mm": p.get("radius"), "peak_rate_nm_s": p.get("peak_rate"),
+          "pressure": p.get("pressure"), "feed_mm_min": p.get("feed")}
+    return rotating_tool_tif(**{k: v for k, v in kw.items() if v is not None})
+
+
+def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, t_min_s: np.ndarray | None = None):
+    """Solve the job's dwell times from its error map (the dwell stage, wired); returns (Figuring, max feed)."""
+    from .dwell import Alignment, figure_dwell_times, read_error_map
+
+    o = dict(cfg.error_map_options or {})
+    emap = read_error_map(cfg.error_map, height_unit=cfg.error_units, lateral_unit=o.get("lateral_unit"),
+                          dx_mm=o.get("dx_mm"))
+    feed = cfg.feed_mm_min or DEFAULT_FEED_MM_MIN
+    machine = machine_profile(cfg)
+    # the machine's feed limit: [error_map] max_feed_mm_min, else the profile's, else the smoothing stage's default
+    default_max = min(5.0 * feed, machine.max_feed_mm_min) if machine is not None else 5.0 * feed
+    max_feed = float(o.get("max_feed_mm_min", default_max))
+    fig = figure_dwell_times(
+        surface, spath, emap, build_tif(cfg.tif), max_feed_mm_min=max_feed, alignment=Alignment.from_dict(o),
+        bias_nm=o.get("bias_nm", "auto"), method=o.get("method", "auto"), smoothness=float(o.get("smoothness", 0.0)),
+        extension_weight=float(o.get("extension_weight", 0.2)), max_uncovered=float(o.get("max_uncovered", 0.02)),
+        ca_margin_mm=float(o.get("ca_margin_mm", 0.0)),
+        period_ms=cfg.period_ms or (machine.period_ms if machine is not None else DEFAULT_PERIOD_MS),
+        chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=t_min_s)
+    return fig, max_feed
 
 
 def rebuild_report(out_dir: str | Path) -> dict[str, Path]:

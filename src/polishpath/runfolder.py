@@ -60,6 +60,12 @@ ARRAY_KEYS = (
     "knots", "control_points", "curve_weights", "curve_degree",
 )
 
+#: arrays of a figuring run (``--error-map``), on the analysis grid ``figuring_grid`` = (x0, y0, pitch) mm
+FIGURING_ARRAY_KEYS = (
+    "figuring_error_nm", "figuring_inside", "figuring_target_nm", "figuring_weight", "figuring_removal_nm",
+    "figuring_ideal_removal_nm", "figuring_residual_nm", "figuring_grid", "figuring_times_s", "figuring_t_min_s",
+)
+
 
 def write_run(
     out_dir: str | Path,
@@ -72,6 +78,7 @@ def write_run(
     tool_path: ToolPath,
     summary: dict[str, Any],
     config: dict[str, Any],
+    extra_arrays: dict[str, Any] | None = None,
 ) -> dict[str, Path]:
     """Write ``run.npz``, ``summary.json`` and ``job.toml`` of a run into ``out_dir``.
 
@@ -85,6 +92,8 @@ def write_run(
         Figures of the run (JSON-ready values or numpy scalars); :data:`SCHEMA_KEY` is added.
     config : dict
         The job's options (``None`` values are left out of ``job.toml``).
+    extra_arrays : dict, optional
+        Arrays of optional stages (figuring: :data:`FIGURING_ARRAY_KEYS`).
 
     Returns
     -------
@@ -110,6 +119,7 @@ def write_run(
         arrays[f"residual_{k}"] = np.asarray(v)
     for i, loop in enumerate(region.loops):
         arrays[f"region_loop_{i}"] = loop
+    arrays.update(extra_arrays or {})
     written = {"arrays": out / ARRAYS_FILE, "summary": out / SUMMARY_FILE, "job": out / JOB_FILE}
     with atomic_open(written["arrays"], "wb") as fh:
         np.savez_compressed(fh, **arrays)
@@ -126,8 +136,12 @@ def job_toml(config: dict[str, Any]) -> str:
     import tomli_w
 
     d = {k: (list(v) if isinstance(v, tuple) else v) for k, v in config.items() if v is not None}
+    doc: dict[str, Any] = {"job": d}
+    em = d.pop("error_map_options", None)
+    if em:  # figuring options: their own [error_map] table
+        doc["error_map"] = em
     head = f"# polishpath {__version__} job: re-run exactly with `polishpath plan --config job.toml`\n"
-    return head + tomli_w.dumps({"job": d})
+    return head + tomli_w.dumps(doc)
 
 
 def read_toml(path: str | Path, what: str = "job file") -> dict[str, Any]:

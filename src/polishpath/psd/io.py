@@ -216,6 +216,7 @@ def _read_text(text, source, *, csv_like, lateral_unit, height_unit, dx_mm, dy_m
         grid[iy, ix] = z
         params["n_nan"] = int(np.isnan(grid).sum())
         params["layout"] = "x y z points"
+        params["origin_mm"] = [float(ux[0]), float(uy[0])]  # the map's own coordinates (figuring aligns with them)
         return Measurement(grid, sx, sy, "map", source, params)
     # grid of heights
     dxv = dx_mm

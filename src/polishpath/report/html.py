@@ -379,12 +379,18 @@ def build_html(run: RunData, figures: dict[str, tuple[Any, Path | None]], *, com
     # 6. simulation
     parts.append(_simulation_section(run))
 
+    # 6b. figuring (only for runs whose dwell times were solved from an error map)
+    from .figuring import figuring_section
+
+    parts.append(figuring_section(run, _png_data_uri))
+
     # 7. parameters and every figure
     parts.append(_tables_section(run))
 
     nav = ("<nav>" + "".join(f'<a href="#{a}">{_esc(t)}</a>' for a, t in [
         ("overview", "Overview"), ("surface", "3D path"), ("flattening", "Flattening"), ("planar", "Planar path"),
-        ("quality", "Steps & directions"), ("feed", "Feed"), ("simulation", "Simulation"),
+        ("quality", "Steps & directions"), ("feed", "Feed"), ("simulation", "Simulation")]
+        + ([("figuring", "Figuring")] if run.section("figuring") else []) + [
         ("parameters", "Parameters & figures")]) + "</nav>")
     js = (_plotly_js(compress_js) + "<script>" + _LOADER + "</script>") if scripts else ""
     footer = ("<footer>Written by polishpath from the files of the run folder "

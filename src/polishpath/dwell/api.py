@@ -1,0 +1,236 @@
+"""The dwell stage's door: a surface path and an error map in, dwell times and the predicted residual out.
+
+:func:`figure_dwell_times` solves the times at the path's own dwell points;
+:func:`predict_residual` takes the machine-timed samples of the smoothed path
+(what the CNC will run, at its interpolation period) and returns the residual
+the summary and the report show.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import FiguringError
+from ..types import Provenance, Surface, SurfacePath
+from .errormap import Alignment, ErrorMap
+from .solver import (
+    DwellSolution,
+    minimum_times,
+    passband_cutoff_per_mm,
+    removal_map,
+    solve_dwell,
+    split_by_frequency,
+    tif_reach_mm,
+)
+from .target import Target, aperture_geometry, build_target, rms_pv
+
+
+@dataclass(frozen=True)
+class Figuring:
+    """Dwell times solved for a measured error.
+
+    Attributes
+    ----------
+    times_s : (N,) float64
+        Dwell time per point of the path, s.
+    target : Target
+        Error, aperture, target removal on the analysis grid.
+    solution : DwellSolution
+    tif : TIF
+    provenance : Provenance
+    ideal_removal_nm : (ny, nx) float64
+        Stop-and-dwell removal of ``times_s`` at the dwell points, on ``target.grid``.
+    stats : dict
+        ``initial_rms_nm``, ``initial_pv_nm``, ``uncorrectable_rms_nm`` (the
+        target's part above the passband), ``passband_cutoff_per_mm``,
+        ``min_time_excess_nm`` (infeasibility: most the minimum times remove
+        beyond the target, before the bias), ``ideal_residual_rms_nm`` (the
+        stop-and-dwell residual), solver figures.
+    """
+
+    times_s: np.ndarray
+    target: Target
+    solution: DwellSolution
+    tif: Any
+    provenance: Provenance
+    stats: dict[str, Any] = field(default_factory=dict)
+    ideal_removal_nm: np.ndarray | None = None
+
+
+def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: ErrorMap, tif, *,
+                       max_feed_mm_min: float, alignment: Alignment | None = None, bias_nm: float | str = "auto",
+                       method: str = "auto", smoothness: float = 0.0, extension_weight: float = 0.2,
+                       max_uncovered: float = 0.02, solve_pitch_mm: float | None = None, max_iter: int = 1500,
+                       spacing_mm: float | None = None, ca_margin_mm: float = 0.0, period_ms: float | None = None,
+                       chord_tol_mm: float | None = None, t_min_s: np.ndarray | None = None) -> Figuring:
+    """Solve the dwell times that remove ``error_map`` along ``surface_path``.
+
+    Parameters
+    ----------
+    surface : Surface
+        The part (its boundary seen along z is the clear aperture).
+    surface_path : SurfacePath
+        Dwell points (N, 3) mm in path order; each reads the map at its x, y.
+    error_map : ErrorMap
+    tif : TIF or RotatingToolTIF
+        Removal rate, nm/s.
+    max_feed_mm_min : float
+        The machine's maximum feed: each time is at least the point's step at this feed.
+    alignment : Alignment, optional
+    bias_nm : float or "auto"
+        Uniform extra removal, nm. ``"auto"``: the least bias with which the
+        minimum times remove no more than the target anywhere (0 when they already fit).
+    method : {"auto", "lsq", "fft"}
+    smoothness, extension_weight, max_uncovered, solve_pitch_mm, max_iter
+        See :func:`~polishpath.dwell.solver.solve_dwell` and :func:`~polishpath.dwell.target.build_target`.
+    spacing_mm : float, optional
+        Typical step, mm (default: the median step of the path).
+    ca_margin_mm : float
+        Clear aperture = the part's outline shrunk by this, mm (see :func:`build_target`).
+    period_ms, chord_tol_mm : float, optional
+        The machine interpolation (lowers the minimum-time feed where the path turns, see
+        :func:`~polishpath.dwell.solver.minimum_times`).
+    t_min_s : (N,) float, optional
+        Minimum times to use instead (e.g. raised where the machine-timed path could not go faster).
+
+    Returns
+    -------
+    Figuring
+    """
+    xyz = np.asarray(surface_path.xyz)
+    n = len(xyz)
+    if n == 0:
+        raise FiguringError("the path has no dwell point to give a time to.")
+    pieces = np.asarray(surface_path.planar.pieces) if surface_path.planar is not None else np.array([0, n])
+    steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
+    spacing = float(spacing_mm if spacing_mm is not None else (np.median(steps[steps > 0]) if (steps > 0).any() else 1.0))
+    reach = tif_reach_mm(tif)
+    geom = aperture_geometry(surface.vertices, surface.faces)
+    auto_bias = bias_nm == "auto"
+    if not auto_bias and not isinstance(bias_nm, (int, float)):
+        raise FiguringError(f"bias must be a number of nm or 'auto', got {bias_nm!r}.")
+    target = build_target(error_map, geom, alignment=alignment, band_mm=reach, bias_nm=0.0 if auto_bias else float(bias_nm),
+                          extension_weight=extension_weight, max_uncovered=max_uncovered,
+                          ca_margin_mm=ca_margin_mm)
+    tmin = minimum_times(xyz, pieces, max_feed_mm_min, period_ms=period_ms, chord_tol_mm=chord_tol_mm)
+    if t_min_s is not None:
+        tmin = np.maximum(tmin, np.asarray(t_min_s, dtype=np.float64))
+    pts = xyz[:, :2]
+    # infeasibility: what the minimum times alone remove, against the target (at zero bias)
+    rmin = removal_map(target.grid, pts, tmin, tif)
+    valid = target.valid
+    excess = float(np.max((rmin - target.removal_nm)[valid])) if valid.any() else 0.0
+    if auto_bias and excess > 0:
+        target = target.with_bias(excess)
+    elif excess > 0:
+        warnings.warn(
+            f"the error needs less removal than the minimum dwell gives: the minimum times (each point's step at "
+            f"{max_feed_mm_min:g} mm/min) remove up to {excess:.3g} nm more than the target; that part stays as "
+            "over-removal. Use bias = 'auto' (or >= that), a faster maximum feed or a lower TIF rate.",
+            UserWarning, stacklevel=2)
+    grid_ij = surface_path.planar.ij if surface_path.planar is not None and len(surface_path.planar.ij) == n else None
+    sol = solve_dwell(pts, target, tif, tmin, spacing_mm=spacing, method=method, grid_ij=grid_ij,
+                      smoothness=smoothness, solve_pitch_mm=solve_pitch_mm, max_iter=max_iter)
+    if not sol.converged:
+        warnings.warn(f"the dwell-time solver ({sol.solver}) did not converge in {sol.stats.get('iterations')} "
+                      f"iterations ({sol.stats.get('message')}); the residual shown is that of the last iterate.",
+                      UserWarning, stacklevel=2)
+    init_rms, init_pv = rms_pv(target.error_nm[valid])
+    f_cut = passband_cutoff_per_mm(tif, spacing)
+    _, high = split_by_frequency(target.grid, target.removal_nm, f_cut)
+    unc_rms, _ = rms_pv(high[valid])
+    ideal = removal_map(target.grid, pts, sol.times_s, tif)
+    ideal_rms, ideal_pv = rms_pv((target.removal_nm - ideal)[valid])
+    stats = {
+        "initial_rms_nm": init_rms, "initial_pv_nm": init_pv,
+        "uncorrectable_rms_nm": unc_rms, "passband_cutoff_per_mm": f_cut,
+        "ideal_residual_rms_nm": ideal_rms, "ideal_residual_pv_nm": ideal_pv,
+        "min_time_excess_nm": max(excess, 0.0), "bias_nm": target.params["bias_nm"],
+        "bias_mode": "auto" if auto_bias else "given",
+        "uncovered_fraction": target.params["uncovered_fraction"],
+        "solver": sol.solver, "solver_converged": sol.converged, "solver_stats": sol.stats,
+        "total_time_s": sol.total_time_s, "t_min_total_s": float(tmin.sum()),
+        "spacing_mm": spacing, "error_map": error_map.source,
+    }
+    if unc_rms > 0.05 * max(init_rms, 1e-300):  # worth saying: more than the 5 % a good figuring run leaves
+        stats["uncorrectable_note"] = (
+            f"{unc_rms:.3g} nm RMS of the error lies above {f_cut:.3g} 1/mm, beyond what this TIF at "
+            f"{spacing:.3g} mm spacing can correct; it stays in the residual.")
+    prov = Provenance("dwell", sol.solver, {
+        "max_feed_mm_min": float(max_feed_mm_min), "bias_nm": target.params["bias_nm"], "method": method,
+        "smoothness": float(smoothness), "extension_weight": float(extension_weight),
+        "max_uncovered": float(max_uncovered), "ca_margin_mm": float(ca_margin_mm), "alignment": (alignment or Alignment()).to_dict(),
+        "tif": _tif_params(tif), "error_map": error_map.source}, seed=surface_path.provenance.seed)
+    return Figuring(sol.times_s, target, sol, tif, prov, stats, ideal)
+
+
+def _tif_params(tif) -> dict[str, Any]:
+    p = getattr(tif, "params", None)
+    if isinstance(p, dict):
+        return {"kind": getattr(tif, "kind", type(tif).__name__), **{k: v for k, v in p.items() if k != "shape"}}
+    return {"kind": type(tif).__name__}
+
+
+def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float) -> dict[str, Any]:
+    """Removal and residual of the machine-timed path: each sample stands for one interpolation period.
+
+    Parameters
+    ----------
+    fig : Figuring
+    samples_xyz : (M, 3) float
+        The smoothed path's samples at the constant period (``ToolPath.samples``), mm.
+    period_ms : float
+
+    Returns
+    -------
+    dict
+        ``removal_nm`` and ``residual_nm`` (ny, nx) maps on ``fig.target.grid``
+        (residual NaN outside the measured aperture) and the figures
+        ``residual_rms_nm``, ``residual_pv_nm``, ``removal_rms_nm``, ``machine_time_s``.
+    """
+    s = np.asarray(samples_xyz, dtype=np.float64)
+    dt = period_ms / 1000.0
+    removal = removal_map(fig.target.grid, s[:, :2], np.full(len(s), dt), fig.tif)
+    valid = fig.target.valid
+    residual = np.where(valid, fig.target.removal_nm - removal, np.nan)
+    rr, rp = rms_pv(residual[valid])
+    mr, _ = rms_pv(removal[valid])
+    return {"removal_nm": removal, "residual_nm": residual, "residual_rms_nm": rr, "residual_pv_nm": rp,
+            "removal_rms_nm": mr, "removal_mean_nm": float(np.mean(removal[valid])), "machine_time_s": len(s) * dt}
+
+
+def delivered_times(dwell_params: np.ndarray, sample_params: np.ndarray, period_ms: float) -> np.ndarray:
+    """Time the machine-timed path spends in each dwell point's region, s (N,).
+
+    A sample belongs to the dwell point nearest to it in curve parameter (the
+    regions of the smoothing stage: midpoints between dwell parameters).
+    """
+    dp = np.asarray(dwell_params, dtype=np.float64)
+    mids = 0.5 * (dp[1:] + dp[:-1])
+    k = np.searchsorted(mids, np.asarray(sample_params), side="right")
+    return np.bincount(k, minlength=len(dp)).astype(np.float64) * (period_ms / 1000.0)
+
+
+def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]:
+    """The ``figuring`` block of ``summary.json``."""
+    st = fig.stats
+    return {
+        "initial_rms_nm": st["initial_rms_nm"], "initial_pv_nm": st["initial_pv_nm"],
+        "residual_rms_nm": predicted["residual_rms_nm"], "residual_pv_nm": predicted["residual_pv_nm"],
+        "residual_model": "machine-timed: the smoothed path's samples at the interpolation period",
+        "ideal_residual_rms_nm": st["ideal_residual_rms_nm"],
+        "uncorrectable_rms_nm": st["uncorrectable_rms_nm"], "passband_cutoff_per_mm": st["passband_cutoff_per_mm"],
+        **({"uncorrectable_note": st["uncorrectable_note"]} if "uncorrectable_note" in st else {}),
+        "total_time_s": float(fig.times_s.sum()), "machine_time_s": predicted["machine_time_s"],
+        "solver": fig.solution.solver, "solver_converged": fig.solution.converged,
+        "solver_detail": fig.solution.stats.get("method_detail"), "solver_iterations": fig.solution.stats.get("iterations"),
+        "solve_seconds": fig.solution.stats.get("seconds"),
+        "bias_nm": st["bias_nm"], "bias_mode": st["bias_mode"], "min_time_excess_nm": st["min_time_excess_nm"],
+        "t_min_total_s": st["t_min_total_s"], "points_at_minimum_share": fig.solution.stats.get("bound_active_share"),
+        "uncovered_fraction": st["uncovered_fraction"], "error_map": st["error_map"],
+        "grid": fig.target.grid.to_dict(), "provenance": fig.provenance.to_dict(),
+    }

@@ -1,0 +1,270 @@
+"""Deterministic figuring (issue 17): dwell times from a measured error map and a TIF."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from polishpath.dwell import (
+    Alignment,
+    ErrorMap,
+    figure_dwell_times,
+    gaussian_tif,
+    parse_tif_spec,
+    read_error_map,
+    sample_error,
+    tif_from_spec,
+    zernike_surface,
+)
+from polishpath.errors import CoverageError, ParameterError
+
+# error the TIF can correct: defocus, astigmatism, coma-free spherical (Fringe Z4, Z5, Z6, Z9), nm
+ZERNIKE = [0, 0, 0, 160.0, 40.0, -32.0, 0, 0, 60.0]
+TIF_SPEC = "gaussian:fwhm=3,peak_rate=15"
+
+
+@pytest.fixture(scope="module")
+def figured_job(tmp_path_factory):
+    """A flat disc (radius 15 mm) figured from a Zernike map made here, through the whole job."""
+    from polishpath.pipeline import JobConfig, run
+
+    d = tmp_path_factory.mktemp("figuring")
+    (d / "err.toml").write_text(
+        "[zernike]\nordering = \"fringe\"\nradius_mm = 16.0\nunits = \"nm\"\n"
+        f"coefficients = {ZERNIKE}\npixel_mm = 0.05\n")
+    cfg = JobConfig(surface="xy-polynomial:radius=15,triangles=3000", spacing=0.5, seed=1, error_map=str(d / "err.toml"),
+                    tif=TIF_SPEC, chord_tol_mm=0.005, report=False, error_map_options={"ca_margin_mm": 1.5})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        job = run(cfg)
+    out = d / "out"
+    job.save(out)
+    return job, out
+
+
+def test_zernike_error_is_removed_to_5_percent(figured_job):
+    job, out = figured_job
+    import json
+
+    fg = json.loads((out / "summary.json").read_text())["figuring"]
+    for key in ("initial_rms_nm", "residual_rms_nm", "residual_pv_nm", "total_time_s", "solver"):
+        assert key in fg
+    assert fg["initial_rms_nm"] > 40
+    assert fg["residual_rms_nm"] <= 0.05 * fg["initial_rms_nm"], fg
+    assert fg["solver"] == "fft"  # a flat part's lattice path takes the FFT solver
+    assert fg["total_time_s"] == pytest.approx(float(job.tool_path.dwell_times.sum()), rel=1e-9)
+
+
+def test_times_at_least_the_minimum_and_in_path_csv(figured_job):
+    job, out = figured_job
+    from polishpath.export import read_path_csv
+
+    csv = read_path_csv(out / "path.csv")
+    arr = np.load(out / "run.npz")
+    tmin = arr["figuring_t_min_s"]
+    assert np.all(csv["dwell_time"] >= tmin * (1 - 1e-12))
+    assert np.all(tmin > 0)
+    np.testing.assert_allclose(csv["dwell_time"], job.figuring.times_s, rtol=1e-15)
+
+
+def test_independent_removal_from_path_csv_agrees(figured_job):
+    """Removal summed here from path.csv (x, y, time) with the same Gaussian TIF vs what the run reports."""
+    job, out = figured_job
+    import json
+
+    from polishpath.export import read_path_csv
+
+    csv = read_path_csv(out / "path.csv")
+    arr = np.load(out / "run.npz")
+    fg = json.loads((out / "summary.json").read_text())["figuring"]
+    x0, y0, h = arr["figuring_grid"]
+    target = arr["figuring_target_nm"]
+    valid = arr["figuring_inside"] & np.isfinite(arr["figuring_error_nm"])
+    ii, jj = np.nonzero(valid)
+    ii, jj = ii[::5], jj[::5]  # a fifth of the clear aperture's pixels
+    px, py = x0 + jj * h, y0 + ii * h
+    sigma = 3.0 / (2 * np.sqrt(2 * np.log(2)))
+    mine = np.zeros(len(px))
+    for a in range(0, len(csv["x"]), 200):
+        dx = px[:, None] - csv["x"][None, a:a + 200]
+        dy = py[:, None] - csv["y"][None, a:a + 200]
+        mine += (15.0 * np.exp(-(dx * dx + dy * dy) / (2 * sigma**2)) * csv["dwell_time"][None, a:a + 200]).sum(axis=1)
+    depth = float(np.mean(target[ii, jj]))
+    init = fg["initial_rms_nm"]
+    # the stop-and-dwell removal of path.csv's times: as reported, to 1 %
+    ideal = arr["figuring_ideal_removal_nm"][ii, jj]
+    assert np.sqrt(np.mean((mine - ideal) ** 2)) <= 0.01 * depth
+    res = target[ii, jj] - mine
+    assert np.std(res) == pytest.approx(fg["ideal_residual_rms_nm"], rel=0.01, abs=0.01 * init)
+    # the machine-timed removal (the summary's residual) differs from it only by the schedule's delivery
+    # (time spread along the path, times quantised to the 4 ms period): a few % of the depth
+    machine = arr["figuring_removal_nm"][ii, jj]
+    assert np.sqrt(np.mean((mine - machine) ** 2)) <= 0.04 * depth
+    assert abs(np.std(target[ii, jj] - machine) - fg["residual_rms_nm"]) <= 0.01 * init
+
+
+@pytest.fixture(scope="module")
+def small_part():
+    from polishpath.pipeline import run
+
+    job = run(surface="xy-polynomial:radius=8,triangles=1500", spacing=0.5, seed=3, report=False)
+    return job.surface, job.surface_path
+
+
+def _solve(small_part, z, pix=0.05, **kw):
+    surface, spath = small_part
+    kw.setdefault("max_feed_mm_min", 3000.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return figure_dwell_times(surface, spath, ErrorMap.centred(z, pix), gaussian_tif(15.0, fwhm_mm=3.0),
+                                  ca_margin_mm=1.0, **kw)
+
+
+def test_component_above_the_passband_is_reported_uncorrectable(small_part):
+    low = zernike_surface([0, 0, 0, 60.0, 20.0], 9.0, "fringe", 0.05)
+    h = (low.shape[0] - 1) // 2
+    X, Y = np.meshgrid(np.arange(-h, h + 1) * 0.05, np.arange(-h, h + 1) * 0.05)
+    ripple = 4.0 * np.sin(2 * np.pi * X / 0.4)  # 2.5 1/mm: far above a 3 mm FWHM TIF's passband
+    base = _solve(small_part, low)
+    fig = _solve(small_part, low + ripple)
+    st = fig.stats
+    assert st["passband_cutoff_per_mm"] < 1.0
+    assert st["uncorrectable_rms_nm"] == pytest.approx(4.0 / np.sqrt(2), rel=0.25)
+    assert "uncorrectable_note" in st
+    # the ripple stays in the residual ...
+    assert st["ideal_residual_rms_nm"] >= 0.8 * st["uncorrectable_rms_nm"]
+    # ... and is not fitted by wild times
+    assert fig.times_s.max() <= 1.5 * base.times_s.max()
+    assert fig.times_s.sum() <= 1.2 * base.times_s.sum()
+
+
+def test_nan_pixels_are_ignored(small_part):
+    z = zernike_surface([0, 0, 0, 60.0, 20.0], 9.0, "fringe", 0.05)
+    base = _solve(small_part, z)
+    holed = z.copy()
+    c = (z.shape[0] - 1) // 2
+    holed[c - 10:c + 10, c + 20:c + 40] = np.nan  # a 1 x 1 mm drop-out inside the aperture
+    holed[c + 30, :] = 1e6  # a wild row...
+    holed[c + 30, :] = np.nan  # ...masked: NaN is a mask, never a value
+    fig = _solve(small_part, holed)
+    t = fig.target
+    assert np.isfinite(t.removal_nm[t.weight > 0]).all()
+    assert not t.valid[np.isnan(sample_error(ErrorMap.centred(holed, 0.05), t.grid.xy()).reshape(t.grid.shape))].any()
+    assert 0 < fig.stats["uncovered_fraction"] < 0.02
+    assert np.isfinite(fig.times_s).all()
+    assert fig.stats["ideal_residual_rms_nm"] <= 2 * base.stats["ideal_residual_rms_nm"] + 0.05
+    np.testing.assert_allclose(fig.times_s.sum(), base.times_s.sum(), rtol=0.05)
+
+
+def test_map_not_covering_the_part_is_refused_with_the_fraction(small_part):
+    z = zernike_surface([0, 0, 0, 60.0], 5.0, "fringe", 0.05)  # a 5 mm disc on a part whose CA is 7 mm
+    with pytest.raises(CoverageError) as exc:
+        _solve(small_part, z)
+    msg = str(exc.value)
+    frac = 1 - (5.0 / 7.0) ** 2
+    import re
+
+    got = float(re.search(r"([0-9.]+) % of the part's clear aperture", msg).group(1))
+    assert got == pytest.approx(100 * frac, abs=2.0)
+    assert "alignment" in msg
+
+
+def test_error_units_round_trip(tmp_path):
+    z = zernike_surface([0, 0, 0, 50.0, 10.0], 5.0, "fringe", 0.1)
+    f = tmp_path / "map.txt"
+    body = "\n".join(" ".join("nan" if not np.isfinite(v) else f"{v / 1000:.12g}" for v in row) for row in z)
+    f.write_text("# height_unit: um\n# lateral_unit: mm\n# dx: 0.1 mm\n" + body + "\n")
+    m = read_error_map(f)
+    np.testing.assert_allclose(m.z_nm, z, rtol=1e-9, equal_nan=True)
+    assert m.dx_mm == pytest.approx(0.1)
+    # a file that does not say: --error-units gives the unit; without it nm is assumed, with a warning
+    g = tmp_path / "bare.txt"
+    g.write_text("# lateral_unit: mm\n# dx: 0.1 mm\n" + body + "\n")
+    np.testing.assert_allclose(read_error_map(g, height_unit="um").z_nm, z, rtol=1e-9, equal_nan=True)
+    with pytest.warns(UserWarning, match="assumed"):
+        np.testing.assert_allclose(read_error_map(g).z_nm, z / 1000, rtol=1e-9, equal_nan=True)
+    # Zernike TOML in um
+    t = tmp_path / "z.toml"
+    t.write_text("[zernike]\nordering = \"fringe\"\nradius_mm = 5.0\nunits = \"um\"\n"
+                 "coefficients = [0, 0, 0, 0.05, 0.01]\npixel_mm = 0.1\n")
+    np.testing.assert_allclose(read_error_map(t).z_nm, z, rtol=1e-9, equal_nan=True)
+
+
+def test_alignment_translation_rotation_flip_scale():
+    z = np.add.outer(np.arange(40.0), 100 * np.arange(50.0))  # z = row + 100 col
+    m = ErrorMap(z, 0.1, 0.1, (0.0, 0.0))
+    p = np.array([[1.2, 2.3]])
+    base = sample_error(m, p)[0]
+    al = Alignment(offset_mm=(3.0, -1.0), rotation_deg=30.0, flip="none", scale=1.0)
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    q = np.array([[c * 1.2 - s * 2.3 + 3.0, s * 1.2 + c * 2.3 - 1.0]])
+    assert sample_error(m, q, al)[0] == pytest.approx(base)
+    assert sample_error(m, np.array([[-1.2, 2.3]]), Alignment(flip="x"))[0] == pytest.approx(base)
+    assert sample_error(m, np.array([[2.4, 4.6]]), Alignment(scale=2.0))[0] == pytest.approx(base)
+    assert np.isnan(sample_error(m, np.array([[-5.0, 0.0]]))[0])
+    with pytest.raises(ParameterError):
+        Alignment(flip="z")
+
+
+def test_tif_specs_and_one_tif_type():
+    import polishpath.dwell as dwell
+    import polishpath.simulate as simulate
+
+    assert simulate.TIF is dwell.TIF and simulate.gaussian_tif is dwell.gaussian_tif
+    t = tif_from_spec("gaussian:fwhm=2,peak_rate=40")
+    assert t.params["fwhm_mm"] == pytest.approx(2.0) and t.params["peak_rate_nm_s"] == 40.0
+    assert parse_tif_spec("rotating:rpm=230,radius=2")[1] == {"rpm": 230.0, "radius": 2.0}
+    for bad in ("gauss:fwhm=1", "gaussian:fwhm=1", "gaussian:fwhm=x,peak_rate=1", "gaussian:fwhm=1,peak_rate=2,k=3"):
+        with pytest.raises(ParameterError):
+            tif_from_spec(bad)
+
+
+def test_lsq_solver_matches_fft_on_a_lattice(small_part):
+    z = zernike_surface([0, 0, 0, 60.0, 20.0], 9.0, "fringe", 0.05)
+    a = _solve(small_part, z, method="fft")
+    b = _solve(small_part, z, method="lsq")
+    assert a.solution.solver == "fft" and b.solution.solver == "lsq"
+    assert np.all(b.times_s >= b.solution.t_min_s)
+    ra, rb = a.stats["ideal_residual_rms_nm"], b.stats["ideal_residual_rms_nm"]
+    assert rb <= 0.1 * b.stats["initial_rms_nm"]
+    assert abs(ra - rb) <= 0.05 * a.stats["initial_rms_nm"]
+
+
+def test_cli_refuses_an_uncovered_map_with_exit_2(tmp_path):
+    from typer.testing import CliRunner
+
+    from polishpath.cli import app
+
+    (tmp_path / "small.toml").write_text("[zernike]\nordering = \"fringe\"\nradius_mm = 4.0\nunits = \"nm\"\n"
+                                         "coefficients = [0, 0, 0, 50.0]\npixel_mm = 0.1\n")
+    r = CliRunner().invoke(app, ["plan", "xy-polynomial:radius=8,triangles=1500", "--spacing", "0.5", "--seed", "1",
+                                 "--error-map", str(tmp_path / "small.toml"), "--tif", "gaussian:fwhm=3,peak_rate=15",
+                                 "--no-report", "-q", "-o", str(tmp_path / "out")])
+    assert r.exit_code == 2, r.output
+    assert "does not cover the part" in r.output and "Traceback" not in r.output
+    r = CliRunner().invoke(app, ["plan", "hemisphere:triangles=2000", "--tif", "gaussian:fwhm=3,peak_rate=15",
+                                 "--no-report", "-q", "-o", str(tmp_path / "out2")])
+    assert r.exit_code == 2 and "--error-map" in r.output
+
+
+def test_xyz_map_keeps_its_coordinates(tmp_path):
+    x, y = np.meshgrid(np.arange(10) * 0.5 + 3.0, np.arange(12) * 0.5 - 2.0)
+    z = 2.0 * x + y
+    f = tmp_path / "m.xyz"
+    f.write_text("# lateral_unit: mm\n# height_unit: nm\n" + "\n".join(f"{a} {b} {c}" for a, b, c in
+                                                                     zip(x.ravel(), y.ravel(), z.ravel())))
+    m = read_error_map(f)
+    assert m.origin_mm == (3.0, -2.0)
+    assert sample_error(m, np.array([[4.25, 0.25]]))[0] == pytest.approx(2 * 4.25 + 0.25)
+
+
+def test_report_has_the_figuring_section(figured_job):
+    _, out = figured_job
+    from polishpath.report import write_report
+
+    write_report(out)
+    page = (out / "report.html").read_text()
+    assert 'id="figuring"' in page and "predicted residual" in page
+    assert (out / "figures" / "figuring.png").stat().st_size > 10_000
