@@ -5,7 +5,10 @@ message (what is wrong, what to do) and exits non-zero; no traceback is shown
 for bad input. ``--json`` prints one JSON object of figures on stdout.
 
 Exit codes: 0 success, 1 unexpected internal error, 2 bad input or a stage
-that could not complete (the message says which), 130 interrupted (Ctrl-C).
+that could not complete (the message says which), 130 interrupted (SIGINT,
+Ctrl-C), 143 terminated (SIGTERM). A command that writes a folder writes it
+whole or not at all (:func:`polishpath.fileio.staged_folder`): after an
+interrupt the folder is absent or as it was before, and the message says which.
 """
 
 from __future__ import annotations
@@ -13,7 +16,9 @@ from __future__ import annotations
 import inspect
 import json
 import os
+import signal
 import sys
+import threading
 import typing
 from pathlib import Path
 from typing import Any, Callable, Optional
@@ -61,26 +66,82 @@ def _fail(msg: str, code: int) -> None:
     raise typer.Exit(code)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C's KeyboardInterrupt so the same clean-up runs (exit 143)."""
+
+
+#: the SIGINTs / SIGTERMs this process received, in order (empty: none)
+_SIGNALLED: list[int] = []
+
+
+def _raise_on_signal(signum, frame):
+    _SIGNALLED.append(signum)
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _handle_signals() -> dict | None:
+    """Make SIGTERM raise :class:`Terminated` and SIGINT KeyboardInterrupt, remembering which came
+    (main thread only: Python runs handlers there). Returns the handlers replaced (None: not installed)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return {sig: signal.signal(sig, _raise_on_signal) for sig in (signal.SIGTERM, signal.SIGINT)}
+
+
+def _interrupt_message(et: type, out: Path | None) -> tuple[str, int]:
+    """What an interrupt left, said truthfully, and its exit code (130 SIGINT, 143 SIGTERM)."""
+    from .fileio import COMMITTED
+
+    code, name = (143, "terminated (SIGTERM)") if issubclass(et, Terminated) else (130, "interrupted (SIGINT)")
+    if out is None:
+        return f"{name}; nothing was written.", code
+    if out.absolute() in COMMITTED:
+        return f"{name} after {out} had been written whole.", code
+    if out.exists():
+        return f"{name}; {out} is as it was before this command (nothing of this run was written).", code
+    return f"{name}; {out} was not created (no partial output left).", code
+
+
+def _interrupt_in(exc: BaseException | None) -> BaseException | None:
+    """The KeyboardInterrupt (SIGINT) or :class:`Terminated` (SIGTERM) that ``exc`` is or came from.
+
+    A signal handled while compiled code runs (numba's dispatcher) surfaces as a
+    ``SystemError`` "returned a result with an exception set" whose context is
+    the interrupt: that is an interrupt too, not a bug.
+    """
+    first, seen = exc, 0
+    while exc is not None and seen < 20:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        exc = exc.__cause__ or exc.__context__
+        seen += 1
+    if _SIGNALLED and isinstance(first, SystemError):  # the context was lost on the way out
+        return Terminated() if _SIGNALLED[-1] == signal.SIGTERM else KeyboardInterrupt()
+    return None
+
+
 class _guard:
-    """Turn polishpath errors into a message and exit code; Ctrl-C into exit 130."""
+    """Turn polishpath errors into a message and exit code; SIGINT into exit 130, SIGTERM into 143.
+
+    ``out_dir``: the output this command writes, named in the interrupt message.
+    """
 
     def __init__(self, out_dir: Path | None = None):
         self.out_dir = out_dir
 
     def __enter__(self):
+        self._handlers = _handle_signals()
         return self
 
     def __exit__(self, et, ev, tb):
+        for sig, handler in (self._handlers or {}).items():
+            signal.signal(sig, handler)
         if et is None or issubclass(et, (typer.Exit, SystemExit)):
             return False
         if issubclass(et, PolishPathError):
             _fail(str(ev), ev.exit_code)
-        if issubclass(et, KeyboardInterrupt):
-            if self.out_dir is not None:
-                from .pipeline import remove_partial
-
-                remove_partial(self.out_dir)
-            _fail("interrupted; no half-written files were left.", 130)
+        interrupt = _interrupt_in(ev)
+        if interrupt is not None:
+            _fail(*_interrupt_message(type(interrupt), self.out_dir))
         if issubclass(et, MemoryError):
             _fail("ran out of memory. Try fewer triangles, a larger spacing, or a smaller part.", 2)
         if os.environ.get("POLISHPATH_DEBUG"):
@@ -191,7 +252,11 @@ def flatten_cmd(
     from .surfaces import load_surface
 
     _quiet(quiet, json_out)
-    with _guard():
+    with _guard(output):
+        if output is not None:
+            from .fileio import check_output_file
+
+            check_output_file(output, what="-o")
         with progress.stage("reading surface"):
             s = load_surface(surface, units=units, scale=scale, component=component)
         with progress.stage(f"flattening ({method})"):
@@ -271,13 +336,16 @@ def plan_cmd(
 
       polishpath plan --config out/job.toml -o out-again
     """
-    from .config import parse_job
-    from .pipeline import run
-
     _quiet(quiet, json_out)
     out_dir = output or Path("out")
     with _guard(out_dir):
+        from .config import parse_job
+        from .fileio import check_output_folder
+        from .pipeline import run
+        from .runfolder import is_run_folder
+
         cfg = parse_job(toml=config, surface=surface, **(job_options or {}))
+        check_output_folder(out_dir, is_run_folder, what="output folder", kind="polishpath run folder")
         job = run(cfg)
         written = job.save(out_dir)
         summary = job.summary()
@@ -303,7 +371,7 @@ def report_cmd(
     from .pipeline import rebuild_report
 
     _quiet(quiet, json_out)
-    with _guard():
+    with _guard(run_dir):
         with progress.stage("writing report"):
             written = rebuild_report(run_dir)
         if json_out:
@@ -361,7 +429,7 @@ def simulate_cmd(
 
     _quiet(quiet, json_out)
     run_mode = Path(target).is_dir()
-    with _guard(None if run_mode else (output or Path("out-simulate"))):
+    with _guard((output or Path(target) / "simulation") if run_mode else (output or Path("out-simulate"))):
         tif = (gaussian_tif(rate, fwhm_mm=fwhm) if fwhm is not None
                else rotating_tool_tif(rpm, radius, pressure, feed_mm_min=feed))
         if run_mode:
@@ -379,7 +447,7 @@ def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, 
     from . import progress
     from .runfolder import SIMULATION_DIR, read_run
     from .simulate import simulate_job
-    from .simulate.jobfiles import clear_outputs, format_job_table, write_job_outputs
+    from .simulate.jobfiles import format_job_table, write_job_outputs
 
     with progress.stage("reading the run"):
         run = read_run(run_dir)
@@ -388,17 +456,19 @@ def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, 
     seed = seed if seed is not None else (run_seed if isinstance(run_seed, int) else 0)
     name = f"{run_dir.name} ({surface.source or surface.name}, {tool_path.surface_path.planar.pattern}, " \
            f"{len(tool_path.dwell_params):,} dwell points, seed {run_seed})"
+    sim_dir = output if output is not None else run_dir / SIMULATION_DIR
+    into_run = sim_dir.absolute() == (run_dir / SIMULATION_DIR).absolute()
+    staged = _simulation_staging(run_dir if into_run else sim_dir, into_run)
     with progress.stage(f"simulating the run's own path ({timing} timing)"):
         out = simulate_job(tool_path, surface, flattening=flat, plane=plane, timing=timing, tif=tif, dx_mm=dx,
                            depth_nm=depth, seed=seed, spacing_mm=run.spacing)
-    sim_dir = output if output is not None else run_dir / SIMULATION_DIR
-    clear_outputs(sim_dir)
-    write_job_outputs(out, sim_dir, run_dir.name)
-    if sim_dir.resolve() == (run_dir / SIMULATION_DIR).resolve():
-        from .pipeline import rebuild_report
+    with staged as stage:
+        write_job_outputs(out, stage / SIMULATION_DIR if into_run else stage, run_dir.name)
+        if into_run:
+            from .report import write_report
 
-        with progress.stage("rebuilding the run's report"):
-            rebuild_report(run_dir)
+            with progress.stage("rebuilding the run's report"):
+                write_report(stage, shown_as=run_dir)
     if json_out:
         _print_json({"run": str(run_dir), "output": str(sim_dir), "summary": out["summary"]})
         return
@@ -418,12 +488,15 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
     from .errors import PatchTooSmallError
     from .simulate import compare_planned
     from .simulate.compare import patch_bounds_at_centre
-    from .simulate.jobfiles import clear_outputs
     from .surfaces import load_surface
 
     pats = [p.strip() for p in patterns.split(",") if p.strip()]
     if not pats:
         raise ParameterError("--patterns is empty.", "Name at least one pattern, e.g. pseudorandom,raster.")
+    from .runfolder import is_run_folder
+
+    into_run = is_run_folder(output) and (output / "summary.json").exists()
+    staged = _simulation_staging(output, into_run)
     with progress.stage("reading surface"):
         s = load_surface(surface, units=units, scale=scale, component=component)
     with progress.stage(f"flattening ({method})"):
@@ -437,22 +510,22 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
         info[pat] = {"n_points": int(sp.planar.n_points), "planar_spacing_mm": float(sp.planar_spacing),
                      "spacing_mm": float(spacing), "spacing_on": spacing_on,
                      "provenance": sp.planar.provenance.to_dict()}
-    sim_dir = output / "simulation" if (output / "summary.json").exists() else output
-    with progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):
+    sim_dir = output / "simulation" if into_run else output
+    with staged as stage, progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):
         try:
             bounds = patch_bounds_at_centre(region, patch)
-            clear_outputs(sim_dir)
             res = compare_planned(planned, seed=seed, dx_mm=dx, tif=tif, removal_depth_nm=depth,
-                                  time_model=time_model, patch_bounds=bounds, out_dir=sim_dir, plan_info=info)
+                                  time_model=time_model, patch_bounds=bounds,
+                                  out_dir=stage / "simulation" if into_run else stage, plan_info=info)
         except PatchTooSmallError:
             raise PatchTooSmallError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
                                      "inside the patch, away from its edges by the tool's reach.",
                                      "Use --patch 10 or larger.") from None
-    if sim_dir != output:
-        from .pipeline import rebuild_report
+        if into_run:
+            from .report import write_report
 
-        with progress.stage("rebuilding the run's report"):
-            rebuild_report(output)
+            with progress.stage("rebuilding the run's report"):
+                write_report(stage, shown_as=output)
     if json_out:
         _print_json({"surface": s.source or s.name, "output": str(sim_dir), "rows": res["rows"], "params": res["params"]})
         return
@@ -461,6 +534,25 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
                "simulated in the flattened plane at each pattern's planar spacing ("
                + ", ".join(f"{k} {v['planar_spacing_mm']:.3g} mm" for k, v in info.items()) + ")")
     typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, psd.png, residual maps)")
+
+
+def _simulation_staging(folder: Path, into_run: bool):
+    """The staged folder a simulation writes (checked now, before the work; entered to write).
+
+    ``into_run``: ``folder`` is a run folder, which gets a fresh ``simulation/`` and
+    report (its other files copied); else ``folder`` is a simulation folder of its own.
+    """
+    from .fileio import check_output_folder, staged_folder
+    from .runfolder import SIMULATION_DIR, is_run_folder
+    from .simulate import is_simulation_folder
+
+    if into_run:
+        kw = dict(recognise=is_run_folder, kind="polishpath run folder",
+                  keep=lambda n: n not in (SIMULATION_DIR, "report.html", "figures"))
+    else:
+        kw = dict(recognise=is_simulation_folder, kind="polishpath simulation folder")
+    check_output_folder(folder, kw["recognise"], kind=kw["kind"])
+    return staged_folder(folder, **kw)
 
 
 @app.command("psd")
@@ -517,18 +609,21 @@ def paper_cmd(
     Example: polishpath paper -o out-paper --meshes ../shared/data/meshes   (full run: a few minutes; --quick: about a minute)
     """
     from . import progress
-    from .paper import reproduce
+    from .fileio import check_output_folder, staged_folder
+    from .paper import is_paper_folder, reproduce
 
     _quiet(quiet, False)
     with _guard(output):
+        check_output_folder(output, is_paper_folder, kind="polishpath paper folder")
         if meshes is None:
             typer.echo("polishpath: note: no shared meshes folder (--meshes DIR or $POLISHPATH_MESHES): the rabbit "
                        "of Fig. 10 and the lilium row of Table 3 are skipped.", err=True)
-        with progress.stage("reproducing the paper's tables and figures"):
-            res = reproduce(output, quick=quick, seed=seed, meshes=meshes)
-        typer.echo(f"wrote {res['markdown']}")
+        with staged_folder(output, is_paper_folder, kind="polishpath paper folder") as stage:
+            with progress.stage("reproducing the paper's tables and figures"):
+                res = reproduce(stage, quick=quick, seed=seed, meshes=meshes)
+        typer.echo(f"wrote {output / Path(res['markdown']).name}")
         if res.get("html"):
-            typer.echo(f"wrote {res['html']}")
+            typer.echo(f"wrote {output / Path(res['html']).name}")
         secs = res.get("seconds", {}).get("total")
         if secs is not None:
             typer.echo(f"took {secs:.1f} s")
@@ -609,11 +704,13 @@ def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> Non
 
 def main() -> None:
     """Console-script entry point."""
+    _handle_signals()
     try:
         app()
-    except KeyboardInterrupt:  # pragma: no cover
-        typer.echo("polishpath: interrupted", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt as exc:  # pragma: no cover - outside a command's guard
+        msg, code = _interrupt_message(type(exc), None)
+        typer.echo(f"polishpath: {msg}", err=True)
+        sys.exit(code)
 
 
 if __name__ == "__main__":  # pragma: no cover

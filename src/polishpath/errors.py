@@ -127,6 +127,10 @@ class InvariantError(RuntimeError):
     """
 
 
+class OutputLocationError(InputError, ExportError):
+    """The output location cannot take the output (a file, a folder of other files, read-only, too little space)."""
+
+
 class MissingDependencyError(PolishPathError, ImportError):
     """An optional dependency is needed for the feature that was asked for."""
 

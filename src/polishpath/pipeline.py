@@ -11,11 +11,9 @@ result; :meth:`Job.save` writes the machine files, the run-folder files
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import datetime
 import math
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -117,7 +115,13 @@ class Job:
         return jsonable(s)
 
     def save(self, out_dir: str | Path, *, report: bool | None = None) -> dict[str, Path]:
-        """Write every output into ``out_dir`` atomically (a temp folder renamed into place per file).
+        """Write every output into ``out_dir``, whole or not at all.
+
+        The files are written into a staging folder beside ``out_dir`` and renamed
+        into place at the end (:func:`polishpath.fileio.staged_folder`): a
+        previous run in ``out_dir`` is replaced whole (no stale file stays), a
+        folder of other files is refused, and an interrupted or failed write
+        leaves ``out_dir`` as it was.
 
         Returns
         -------
@@ -125,44 +129,59 @@ class Job:
             What was written: ``program`` (the post's file), ``path_csv``, ``toolpath_xyz``,
             ``gcode`` (G-code posts), ``flat_obj``, the run-folder files ``arrays``, ``summary``, ``job``
             (:func:`polishpath.runfolder.write_run`), and ``report`` when made.
+
+        Raises
+        ------
+        OutputLocationError
+            ``out_dir`` is a file, a folder of other files, not writable, or on a
+            disk without room for the run (estimated).
+        ExportError
+            The disk filled up while writing (nothing is left).
         """
         from . import export
+        from .fileio import staged_folder
         from .flatten import save_obj
-        from .runfolder import write_run
+        from .runfolder import estimate_run_bytes, is_run_folder, write_run
 
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        target = Path(out_dir)
+        with_report = report if report is not None else self.config.report
+        need = estimate_run_bytes(self.planar.n_points, len(self.tool_path.samples), self.surface.n_vertices,
+                                  self.surface.n_faces, report=with_report)
         written: dict[str, Path] = {}
         header = self.gcode_header()
-        with progress.stage("writing machine files", self.timings, "write"):
-            cfg = self.config
-            info = export.write_program(self.tool_path, out, post=post_name(cfg), settings=cfg.post_settings,
-                                        mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
-                                        surface=self.surface)
-            self.program.clear()  # the record of what the post wrote fills as the files are written (like timings)
-            self.program.update(info)
-            written["program"] = Path(self.program["path"])
-            if self.program["file"] != "path.csv":
-                export.write_path_csv(self.tool_path, out / "path.csv")
-            written["path_csv"] = out / "path.csv"
-            if self.program["file"] != "toolpath.xyz":
-                export.write_xyz(self.tool_path, out / "toolpath.xyz")
-            written["toolpath_xyz"] = out / "toolpath.xyz"
-            if self.program["file"] == "toolpath.nc":
-                written["gcode"] = out / "toolpath.nc"
-            with atomic_open(out / "flat.obj", "w") as fh:
-                save_obj(self.flattening, fh)
-            written["flat_obj"] = out / "flat.obj"
-            written.update(write_run(out, surface=self.surface, flattening=self.flattening, region=self.region,
-                                     planar=self.planar, surface_path=self.surface_path, tool_path=self.tool_path,
-                                     summary=self.summary(), config=self._job_config_with_seed().to_dict(),
-                                     extra_arrays=self._figuring_arrays()))
-        if report if report is not None else self.config.report:
-            from .report import write_report
+        with staged_folder(target, is_run_folder, need_bytes=need, kind="polishpath run folder") as out:
+            with progress.stage("writing machine files", self.timings, "write"):
+                cfg = self.config
+                info = export.write_program(self.tool_path, out, post=post_name(cfg), settings=cfg.post_settings,
+                                            mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
+                                            surface=self.surface)
+                if info.get("path"):  # the summary names the file where it will be, not in the staging folder
+                    info["path"] = str(target / Path(info["path"]).relative_to(out))
+                self.program.clear()  # the record of what the post wrote fills as the files are written (like timings)
+                self.program.update(info)
+                written["program"] = out / Path(self.program["path"]).relative_to(target)
+                if self.program["file"] != "path.csv":
+                    export.write_path_csv(self.tool_path, out / "path.csv")
+                written["path_csv"] = out / "path.csv"
+                if self.program["file"] != "toolpath.xyz":
+                    export.write_xyz(self.tool_path, out / "toolpath.xyz")
+                written["toolpath_xyz"] = out / "toolpath.xyz"
+                if self.program["file"] == "toolpath.nc":
+                    written["gcode"] = out / "toolpath.nc"
+                with atomic_open(out / "flat.obj", "w") as fh:
+                    save_obj(self.flattening, fh)
+                written["flat_obj"] = out / "flat.obj"
+                written.update(write_run(out, surface=self.surface, flattening=self.flattening, region=self.region,
+                                         planar=self.planar, surface_path=self.surface_path,
+                                         tool_path=self.tool_path, summary=self.summary(),
+                                         config=self._job_config_with_seed().to_dict(),
+                                         extra_arrays=self._figuring_arrays()))
+            if with_report:
+                from .report import write_report
 
-            with progress.stage("writing report", self.timings, "report"):
-                written.update(write_report(out))
-        return written
+                with progress.stage("writing report", self.timings, "report"):
+                    written.update(write_report(out, shown_as=target))
+        return {k: target / Path(v).relative_to(out) for k, v in written.items()}
 
     def _figuring_arrays(self) -> dict[str, Any]:
         """The figuring maps for ``run.npz`` (runfolder.FIGURING_ARRAY_KEYS); empty without figuring."""
@@ -577,15 +596,22 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, t_min_s
 
 
 def rebuild_report(out_dir: str | Path) -> dict[str, Path]:
-    """Rebuild ``report.html`` and the PNGs of a finished run from its files."""
+    """Rebuild ``report.html`` and the PNGs of a finished run from its files, whole or not at all.
+
+    The run's other files are copied into a staging folder, the report written
+    there, and the folder renamed into place (:func:`polishpath.fileio.staged_folder`).
+    """
+    from .fileio import staged_folder
     from .report import write_report
+    from .runfolder import is_run_folder, read_run
 
-    return write_report(Path(out_dir))
+    target = Path(out_dir)
+    read_run(target)  # refuses what is not a run folder, with its message
+    with staged_folder(target, is_run_folder, keep=lambda name: name not in ("report.html", "figures"),
+                       need_bytes=_folder_bytes(target) + 12 * 2**20, kind="polishpath run folder") as out:
+        written = write_report(out, shown_as=target)
+    return {k: target / Path(v).relative_to(out) for k, v in written.items()}
 
 
-def remove_partial(out_dir: Path) -> None:  # pragma: no cover - used on Ctrl-C
-    for p in Path(out_dir).glob(".*.tmp"):
-        with contextlib.suppress(OSError):
-            p.unlink()
-    if Path(out_dir).exists() and not any(Path(out_dir).iterdir()):
-        shutil.rmtree(out_dir, ignore_errors=True)
+def _folder_bytes(folder: Path) -> int:
+    return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())

@@ -67,6 +67,44 @@ FIGURING_ARRAY_KEYS = (
 )
 
 
+#: every top-level entry a run folder may hold (the export stage's machine files, this module's
+#: files, the report, a simulation): a folder holding only these is a run folder to replace whole
+RUN_FOLDER_ENTRIES = frozenset({
+    "path.csv", "toolpath.xyz", "toolpath.nc", "flat.obj", ARRAYS_FILE, SUMMARY_FILE, JOB_FILE,
+    "report.html", "figures", SIMULATION_DIR,
+})
+
+
+def is_run_folder(folder: str | Path) -> bool:
+    """True when ``folder`` holds a polishpath run: its ``summary.json`` carries :data:`SCHEMA_KEY`,
+    or every entry is a run folder's own (:data:`RUN_FOLDER_ENTRIES`, leftover ``.*.tmp`` files),
+    as an older or interrupted run leaves it."""
+    d = Path(folder)
+    if not d.is_dir():
+        return False
+    try:
+        summary = json.loads((d / SUMMARY_FILE).read_text(encoding="utf-8"))
+        if isinstance(summary, dict) and SCHEMA_KEY in summary:
+            return True
+    except (OSError, UnicodeDecodeError, ValueError):
+        pass
+    names = [p.name for p in d.iterdir()]
+    return bool(names) and all(n in RUN_FOLDER_ENTRIES or (n.startswith(".") and n.endswith(".tmp")) for n in names)
+
+
+def estimate_run_bytes(n_points: int, n_samples: int, n_vertices: int, n_faces: int, *, report: bool) -> int:
+    """Rough upper estimate of a run folder's size on disk, bytes.
+
+    Per dwell point (path.csv row, run.npz arrays) about 400 bytes, per machine
+    sample (toolpath.xyz and toolpath.nc lines, run.npz arrays) about 160, per
+    vertex / face (flat.obj, run.npz) about 150, and 12 MB for the report
+    (plotly.js, the figures); measured on hemisphere jobs about 1.6x above the
+    real size.
+    """
+    size = 400 * n_points + 160 * n_samples + 150 * (n_vertices + n_faces)
+    return int(size + (12 * 2**20 if report else 0))
+
+
 def write_run(
     out_dir: str | Path,
     *,

@@ -35,8 +35,8 @@ from __future__ import annotations
 
 from .common import machine_info
 from .reference import PAPER, TABLE3_NAMES
-from .run import reproduce
+from .run import is_paper_folder, reproduce
 from .settings import MESHES_ENV, Settings, meshes_folder, settings_for
 
-__all__ = ["MESHES_ENV", "PAPER", "TABLE3_NAMES", "Settings", "machine_info", "meshes_folder", "reproduce",
+__all__ = ["MESHES_ENV", "PAPER", "TABLE3_NAMES", "Settings", "is_paper_folder", "machine_info", "meshes_folder", "reproduce",
            "settings_for"]

@@ -63,6 +63,16 @@ def _summary(doc: Document, res: dict) -> None:
         doc.ul(items)
 
 
+def is_paper_folder(folder) -> bool:
+    """True when ``folder`` holds a previous :func:`reproduce` output (its ``paper.md`` starts with
+    the document's title), which ``polishpath paper -o`` may replace whole."""
+    try:
+        with open(Path(folder) / "paper.md", encoding="utf-8") as fh:
+            return fh.readline().strip() == "# The paper, reproduced"
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
 def reproduce(out_dir: Path, *, quick: bool = False, seed: int = 0, meshes: str | Path | None = None,
               figures_dirname: str = "figures", write_html: bool = True,
               progress: Callable[[str], None] | None = None) -> dict:

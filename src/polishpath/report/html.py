@@ -201,7 +201,7 @@ def _num(x: Any) -> float | None:
     return float(x) if isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) else None
 
 
-def _header(run: RunData, written_at: str) -> tuple[str, str]:
+def _header(run: RunData, written_at: str, folder: Path) -> tuple[str, str]:
     s = run.summary
     cfg = run.section("config")
     surf = run.section("surface")
@@ -230,7 +230,7 @@ def _header(run: RunData, written_at: str) -> tuple[str, str]:
         machine, proc = here["node"] or "?", here["processor"] or ""
     meta = [
         ("seed", seed), ("polishpath", version), ("machine", f"{machine} ({proc})" if proc else machine),
-        ("report written", written_at), ("run folder", run.folder.resolve()),
+        ("report written", written_at), ("run folder", folder.resolve()),
     ]
     if s.get("created") or s.get("date"):
         meta.insert(3, ("run date", s.get("created") or s.get("date")))
@@ -319,7 +319,7 @@ def _interactive_block(key: str, fn, run: RunData, scripts: list[str]) -> tuple[
 
 
 def build_html(run: RunData, figures: dict[str, tuple[Any, Path | None]], *, compress_js: bool = True,
-               written_at: str | None = None) -> str:
+               written_at: str | None = None, shown_as: str | Path | None = None) -> str:
     """The report page as a string.
 
     Parameters
@@ -329,12 +329,16 @@ def build_html(run: RunData, figures: dict[str, tuple[Any, Path | None]], *, com
         What :func:`write_report` drew; a None path means "not drawn, for this reason".
     compress_js : bool
         Embed plotly.js gzip-compressed (smaller) or as plain text.
+    written_at : str, optional
+        Time stamp shown (default: now).
+    shown_as : path, optional
+        The run folder's name shown (default ``run.folder``).
     """
     from .figures import FIGURES
     from .interactive import plot_planar_2d, plot_surface_3d
 
     written_at = written_at or _dt.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
-    title, header = _header(run, written_at)
+    title, header = _header(run, written_at, Path(shown_as) if shown_as is not None else run.folder)
     scripts: list[str] = []
 
     def block(name: str, embed: bool = True) -> str:
@@ -453,7 +457,8 @@ def _tables_section(run: RunData) -> str:
 # --- entry point -------------------------------------------------------------------
 
 
-def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, Path]:
+def write_report(out_dir: str | Path, *, compress_js: bool = True,
+                 shown_as: str | Path | None = None) -> dict[str, Path]:
     """Write ``report.html`` and the PNG figures of a finished run folder.
 
     Reads only the files of the folder (``summary.json``, ``run.npz`` and, when
@@ -466,6 +471,9 @@ def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, 
     compress_js : bool, default True
         Embed plotly.js gzip-compressed (about 2 MB instead of 4.8 MB; unpacked by
         the browser's ``DecompressionStream``). False embeds it as plain text.
+    shown_as : path, optional
+        The run folder's name in the report (default ``out_dir``): the folder
+        it will have once a staging folder is renamed into place.
 
     Returns
     -------
@@ -505,7 +513,7 @@ def write_report(out_dir: str | Path, *, compress_js: bool = True) -> dict[str, 
         result.clear()
         drawn[name] = (display_note(result), png)
         written[f"figure_{name}"] = png
-    page = build_html(run, drawn, compress_js=compress_js)
+    page = build_html(run, drawn, compress_js=compress_js, shown_as=shown_as)
     report = run.folder / "report.html"
     with atomic_open(report, "w") as fh:
         fh.write(page)

@@ -30,12 +30,13 @@ from .rotating import RotatingBasis, RotatingToolTIF, rotating_tool_tif
 from .tif import TIF, DirectionalTIF, gaussian_tif, measured_tif, tilted_tool_tif
 from .jobfiles import format_job_table, write_job_outputs
 from .jobpath import PLANES, TIMINGS, TimedPath, choose_plane, simulate_job, simulate_path, timed_path
+from .jobfiles import is_simulation_folder
 from .workpiece import Workpiece, flat_workpiece, synthetic_workpiece, workpiece_from_measurement
 
 __all__ = [
     "DEFAULT_NOISE", "DEFAULT_SMOOTHING", "PAPER_TABLE4", "DirectionalTIF", "ProcessNoise", "SimulationResult",
     "Smoothing", "TIF", "Workpiece", "compare_paths", "compare_patterns", "compare_planned", "default_tif", "dwell_from_feed", "evaluate_result",
-    "flat_workpiece", "format_table", "gaussian_tif", "measured_tif", "path_time_samples", "plot_psds",
+    "flat_workpiece", "format_table", "gaussian_tif", "is_simulation_folder", "measured_tif", "path_time_samples", "plot_psds",
     "process_noise_factor", "profile_psd", "rasterize_time",
     "simulate_removal", "smooth_surface", "synthetic_workpiece",
     "tilted_tool_tif", "workpiece_from_measurement", "RotatingBasis", "RotatingToolTIF", "rotating_tool_tif",

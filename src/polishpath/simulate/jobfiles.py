@@ -19,6 +19,18 @@ from ..fileio import jsonable
 OUTPUT_GLOBS = ("table.txt", "results.json", "psd.png", "residual*.png", "removal.png")
 
 
+def is_simulation_folder(folder) -> bool:
+    """True when ``folder`` holds nothing but a ``polishpath simulate`` output (:data:`OUTPUT_GLOBS`,
+    ``results.json`` among them): a previous ``simulate -o`` folder, which may be replaced whole."""
+    from fnmatch import fnmatch
+
+    d = Path(folder)
+    if not d.is_dir():
+        return False
+    names = [p.name for p in d.iterdir()]
+    return "results.json" in names and all(any(fnmatch(n, g) for g in OUTPUT_GLOBS) for n in names)
+
+
 def clear_outputs(folder) -> None:
     """Remove the files a previous ``polishpath simulate`` left in ``folder`` (nothing else)."""
     d = Path(folder)
