@@ -707,10 +707,19 @@ def main() -> None:
     _handle_signals()
     try:
         app()
-    except KeyboardInterrupt as exc:  # pragma: no cover - outside a command's guard
+    except KeyboardInterrupt as exc:  # outside typer (it turns the rest into a silent exit 130)
         msg, code = _interrupt_message(type(exc), None)
         typer.echo(f"polishpath: {msg}", err=True)
         sys.exit(code)
+    except SystemExit as exc:
+        # a signal before a command's guard (while the command line is parsed): typer ends it with a silent
+        # exit 130 raised *from* the interrupt; say so, with SIGTERM's own code (the guard's exits are not from one)
+        ctx = exc.__context__
+        if isinstance(ctx, typer.Exit) and isinstance(ctx.__cause__, KeyboardInterrupt):
+            msg, code = _interrupt_message(type(ctx.__cause__), None)
+            typer.echo(f"polishpath: {msg}", err=True)
+            sys.exit(code)
+        raise
 
 
 if __name__ == "__main__":  # pragma: no cover

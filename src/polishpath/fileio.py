@@ -89,8 +89,9 @@ def _check_writable_place(target: Path, need_bytes: int, what: str) -> Path:
         raise OutputLocationError(f"{what} {target} cannot be created: {place} is a file, not a folder.",
                                   "Give -o a path whose parent folders are folders (or can be created).")
     try:
-        probe = tempfile.mkdtemp(prefix=f".{target.name}.probe-", dir=place)
-        os.rmdir(probe)
+        with _signals_held():  # an interrupt between the two calls would leave the probe behind
+            probe = tempfile.mkdtemp(prefix=f".{target.name}.probe-", dir=place)
+            os.rmdir(probe)
     except OSError as exc:
         raise OutputLocationError(f"{what} {target} cannot be written: {place} is not writable "
                                   f"({exc.strerror or exc}).",
@@ -211,8 +212,10 @@ def staged_folder(target: str | Path, recognise: Callable[[Path], bool], *, keep
     t = Path(target)
     check_output_folder(t, recognise, need_bytes=need_bytes, what=what, kind=kind)
     t.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{t.name}.staging-", dir=t.parent))
+    stage: Path | None = None
     try:
+        with _signals_held():  # a signal held here is raised on leaving the block: stage is set by then
+            stage = Path(tempfile.mkdtemp(prefix=f".{t.name}.staging-", dir=t.parent))
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(stage, 0o777 & ~mask)
@@ -246,7 +249,7 @@ def staged_folder(target: str | Path, recognise: Callable[[Path], bool], *, keep
             if old is not None:
                 shutil.rmtree(old, ignore_errors=True)
     finally:
-        if stage.exists():
+        if stage is not None and stage.exists():
             with _signals_held():
                 shutil.rmtree(stage, ignore_errors=True)
 
