@@ -676,6 +676,10 @@ def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> Non
     if "duration_s" in sm:
         typer.echo(f"  machine path: {summary['smooth']['samples']} points at {summary['smooth']['period_ms']:g} ms, "
                    f"{sm['duration_s'] / 60:.1f} min, chord error <= {1000 * sm.get('chord_error_max', float('nan')):.3g} um")
+    if sm.get("boundary_excursion_max_mm") is not None and "boundary_margin_mm" in sm:
+        typer.echo(f"  inside the part: margin {sm['boundary_margin_mm']:.3g} mm"
+                   f"{' (automatic)' if sm.get('boundary_margin_auto') else ''}, farthest sample beyond the "
+                   f"boundary {1000 * sm['boundary_excursion_max_mm']:.3g} um")
     fg = summary.get("figuring")
     if fg:
         typer.echo(f"  figuring ({fg['solver']}): error {fg['initial_rms_nm']:.3g} nm RMS -> predicted residual "

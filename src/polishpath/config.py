@@ -96,8 +96,14 @@ class JobConfig:
         Seed of the random walk; None draws one (and records it).
     start : (u, v) or None
         Planar start point, mm; None: the dwell point nearest the region's centre.
-    margin : float
+    margin : float or None
         Keep dwell points at least this far inside the boundary (in the plane), mm.
+        None (default): a quarter of the planar spacing, widened until no
+        machine sample lies more than ``boundary_tol_mm`` beyond the part
+        (:func:`polishpath.pipeline.run`).
+    boundary_tol_mm : float
+        With the default margin, the most a machine sample may lie beyond the
+        part's rim or over a hole, mm.
     feed_mm_min, period_ms, chord_tol_mm : float or None
         Machine interpolation; None uses the defaults of :mod:`polishpath.defaults`.
     integrator : {"taylor", "ab-am"}
@@ -158,8 +164,13 @@ class JobConfig:
     start: tuple[float, float] | None = option(
         None, "--start", help="Planar start point 'u,v' in mm (default: nearest the centre).",
         parse=parse_pair, cli_type=str)
-    margin: float = option(0.0, "--margin", help="Keep dwell points this far inside the boundary, mm.",
-                           nonnegative=True)
+    margin: float | None = option(None, "--margin",
+                                  help="Keep dwell points this far inside the boundary (in the plane), mm "
+                                       "(default: chosen so the machine path stays on the part, see --boundary-tol).",
+                                  nonnegative=True)
+    boundary_tol_mm: float = option(0.01, "--boundary-tol",
+                                    help="With the default margin: most a machine sample may lie beyond the part's "
+                                         "rim or over a hole, mm (default 0.01).", positive=True)
     feed_mm_min: float | None = option(None, "--feed", help=f"Feed rate, mm/min (default {DEFAULT_FEED_MM_MIN:g}).",
                                        positive=True)
     period_ms: float | None = option(None, "--period", help=f"Interpolation period, ms (default {DEFAULT_PERIOD_MS:g}).",

@@ -39,6 +39,7 @@ from .interpolate import (
     integrator_kernel,
     interpolate_constant_period,
 )
+from .boundary import boundary_excursion
 from .nurbs import (
     averaged_knots,
     basis_functions,
@@ -67,6 +68,7 @@ __all__ = [
     "dwell_regions",
     "sample_normals",
     "curve_deviation",
+    "boundary_excursion",
     "point_mesh_distance",
     "piece_curves",
     "DEFAULT_FEED_MM_MIN",
@@ -254,7 +256,8 @@ def smooth(
     max_feed_mm_min : float, optional
         Machine feed limit, mm/min (default 5 x ``feed_mm_min``).
     surface : Surface, optional
-        The mesh, to measure the curve's deviation from it between dwell points.
+        The mesh, to measure the curve's deviation from it between dwell points
+        and how far samples leave it over its boundary.
     degree : int
         Curve degree (3, the paper's cubic).
     parametrization : {"chord", "centripetal"}
@@ -277,7 +280,10 @@ def smooth(
         ``dwell_time_error_rms`` of the relative dwell-time errors beside
         ``dwell_time_error_max``), ``dwell_through_max`` (largest distance between
         the curve at a dwell parameter and its dwell point, mm), the deviation
-        figures of :func:`curve_deviation`, ``piece_params`` (K+1,) and
+        figures of :func:`curve_deviation`, ``boundary_excursion_max_mm`` (how far
+        the farthest sample lies beyond the part's rim or over a hole, mm,
+        :func:`boundary_excursion`; None without ``surface``) and
+        ``boundary_excursion_samples`` (how many lie beyond it at all), ``piece_params`` (K+1,) and
         ``sample_pieces`` (K+1,) offsets; the times per dwell point are ``ToolPath.dwell_times``.
     """
     t0 = time.perf_counter()
@@ -361,6 +367,15 @@ def smooth(
     stats.update(dwell_time_error_p99=float(np.percentile(derr, 99)),
                  dwell_time_error_rms=float(np.sqrt(np.mean(derr**2))))
     stats.update(curve_deviation(curve, dwell_params, xyz, surface_path.normals, pieces, surface, deviation_samples))
+    all_samples = np.concatenate(samples)
+    if surface is not None:
+        steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
+        steps[pieces[1:-1] - 1] = 0.0  # the lifts between pieces are not on the curve
+        exc = boundary_excursion(all_samples, surface, reach=float(steps.max()) if len(steps) else 0.0)
+        stats.update(boundary_excursion_max_mm=float(exc.max()) if len(exc) else 0.0,
+                     boundary_excursion_samples=int(np.count_nonzero(exc > 0.0)))
+    else:
+        stats.update(boundary_excursion_max_mm=None, boundary_excursion_samples=None)
     stats.update(
         dwell_through_max=through,
         n_dwell_points=int(n),
@@ -380,7 +395,7 @@ def smooth(
          "schedule_passes": int(schedule_passes), "integrator": integrator},
         seed=surface_path.provenance.seed,
     )
-    return ToolPath(curve=curve, dwell_params=dwell_params, samples=np.concatenate(samples),
+    return ToolPath(curve=curve, dwell_params=dwell_params, samples=all_samples,
                     sample_params=np.concatenate(sparams), feed_mm_min=np.concatenate(feeds),
                     period_ms=float(period_ms), surface_path=surface_path, provenance=prov, stats=stats,
                     dwell_times=times)

@@ -1,0 +1,91 @@
+"""How far the machine path leaves the part over its boundary (issue 14: "inside the part").
+
+The smooth curve passes through every dwell point, all of which lie on the
+part, but between two of them a cubic can swing out by up to ~0.4 x the step
+at a sharp turn: near the rim or a hole that swing leaves the part. This module
+measures it; the pipeline keeps it under a tolerance by planning the dwell
+points a margin inside the boundary (see docs/machine-output.md).
+
+A sample's *boundary excursion* is its distance to the part when the closest
+point of the part lies on the part's boundary (the sample is beyond the rim or
+over a hole), and 0 when the closest point is inside (the sample is over the
+part; its small offset along the normal is the curve's surface deviation,
+reported separately).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..meshops import boundary_edges
+
+
+def _closest_points(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (M,) mm and closest point (M, 3) on the mesh of each point (libigl's AABB tree, else trimesh)."""
+    try:
+        import igl
+
+        d2, _, c = igl.point_mesh_squared_distance(points, vertices, faces)
+        return np.sqrt(np.maximum(d2, 0.0)), np.asarray(c)
+    except ImportError:
+        import trimesh
+
+        mesh = trimesh.Trimesh(vertices, faces, process=False)
+        c, dist, _ = trimesh.proximity.closest_point(mesh, points)
+        return np.asarray(dist), np.asarray(c)
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from points ``p`` (..., 3) to segments ``a``-``b`` (..., 3), (...)."""
+    e = b - a
+    ll = np.einsum("...j,...j->...", e, e)
+    t = np.clip(np.divide(np.einsum("...j,...j->...", p - a, e), ll, out=np.zeros_like(ll), where=ll > 0), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[..., None] * e), axis=-1)
+
+
+def boundary_excursion(points: np.ndarray, surface, reach: float) -> np.ndarray:
+    """Distance by which each point lies beyond the part's boundary, (M,) mm (0 over the part).
+
+    Parameters
+    ----------
+    points : (M, 3) float
+        Machine samples, mm.
+    surface : Surface
+        The part, ``vertices`` (V, 3) mm, ``faces`` (F, 3).
+    reach : float
+        Only points within this distance of a boundary edge's midpoint plus half
+        the longest boundary edge are measured (farther ones cannot be beyond
+        the boundary by less than ``reach``), mm; give the longest step of the
+        path, which bounds how far the curve strays from its dwell points.
+
+    Returns
+    -------
+    (M,) float
+        Distance to the part where its closest point is on the boundary (within
+        1e-9 of the part's size), else 0.
+    """
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    out = np.zeros(len(pts))
+    v = np.ascontiguousarray(surface.vertices, dtype=np.float64)
+    f = np.ascontiguousarray(surface.faces, dtype=np.int64)
+    be = boundary_edges(f)
+    if len(pts) == 0 or len(be) == 0:
+        return out
+    a, b = v[be[:, 0]], v[be[:, 1]]
+    half = 0.5 * float(np.linalg.norm(b - a, axis=1).max())
+    tree = cKDTree(0.5 * (a + b))
+    d_mid, _ = tree.query(pts)
+    cand = np.flatnonzero(d_mid <= reach + half)
+    if len(cand) == 0:
+        return out
+    dist, closest = _closest_points(pts[cand], v, f)
+    # is the closest point on a boundary edge? check the edges whose midpoints are near it
+    k = min(16, len(be))
+    _, near = tree.query(closest, k=k)
+    near = np.asarray(near).reshape(len(cand), k)
+    d_edge = _segment_distance(closest[:, None, :], a[near], b[near]).min(axis=1)
+    scale = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    on_boundary = d_edge <= 1e-9 * max(scale, 1.0)
+    out[cand] = np.where(on_boundary, dist, 0.0)
+    return out
