@@ -505,7 +505,8 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
     planned, info = {}, {}
     for pat in pats:
         with progress.stage(f"planning {pat} ({spacing:g} mm on the {'part' if spacing_on == 'surface' else 'plane'})"):
-            sp = plan_on_surface(flat, region, spacing, pattern=pat, seed=seed, spacing_on=spacing_on)
+            # margin=None: the job's own automatic margin, so `plan` at this spacing plans the same grid
+            sp = plan_on_surface(flat, region, spacing, pattern=pat, seed=seed, spacing_on=spacing_on, margin=None)
         planned[pat] = sp.planar
         info[pat] = {"n_points": int(sp.planar.n_points), "planar_spacing_mm": float(sp.planar_spacing),
                      "spacing_mm": float(spacing), "spacing_on": spacing_on,
