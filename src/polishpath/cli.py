@@ -13,6 +13,7 @@ interrupt the folder is absent or as it was before, and the message says which.
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import json
 import os
@@ -139,6 +140,8 @@ class _guard:
             return False
         if issubclass(et, PolishPathError):
             _fail(str(ev), ev.exit_code)
+        if issubclass(et, BrokenPipeError):
+            _quiet_broken_pipe()
         interrupt = _interrupt_in(ev)
         if interrupt is not None:
             _fail(*_interrupt_message(type(interrupt), self.out_dir))
@@ -151,6 +154,18 @@ class _guard:
             "command you ran (set POLISHPATH_DEBUG=1 to see the traceback).",
             1,
         )
+
+
+def _quiet_broken_pipe() -> None:
+    """The reader of our output went away (``polishpath info X | head``): stop quietly, like other Unix tools.
+
+    stdout is pointed at /dev/null so that Python's own flush at exit does not
+    raise again; the exit code is the shell's for a SIGPIPE death (128 + 13).
+    """
+    with contextlib.suppress(OSError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    raise typer.Exit(141)
 
 
 def _print_json(obj: Any) -> None:
@@ -257,6 +272,14 @@ def flatten_cmd(
             from .fileio import check_output_file
 
             check_output_file(output, what="-o")
+        if output is not None and output.suffix.lower() != ".obj":
+            from .errors import ParameterError
+
+            raise ParameterError(
+                f"flatten -o writes an OBJ (3D vertices v and planar coordinates vt), not {output.suffix or 'a file without extension'}:"
+                " a flattening needs its planar coordinates, which STL, PLY and OFF have no place for.",
+                f"Name the output {output.with_suffix('.obj').name}.",
+            )
         with progress.stage("reading surface"):
             s = load_surface(surface, units=units, scale=scale, component=component)
         with progress.stage(f"flattening ({method})"):
@@ -712,6 +735,10 @@ def main() -> None:
     _handle_signals()
     try:
         app()
+    except BrokenPipeError:  # pragma: no cover - output closed while typer printed help
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        sys.exit(141)
     except KeyboardInterrupt as exc:  # outside typer (it turns the rest into a silent exit 130)
         msg, code = _interrupt_message(type(exc), None)
         typer.echo(f"polishpath: {msg}", err=True)

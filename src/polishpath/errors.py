@@ -52,6 +52,14 @@ class ParameterError(InputError, ValueError):
     """A numeric or named parameter is out of range or inconsistent."""
 
 
+class ResourceError(InputError):
+    """The inputs ask for more than the machine has (memory), found before the work starts."""
+
+
+class MeasurementUnitsError(MeasurementFileError):
+    """A measurement's figures are implausible for the units it was read in."""
+
+
 # --- input: mesh validity -----------------------------------------------------------
 
 

@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from . import progress
+from . import progress, resources
 from ._version import __version__
 from .config import JobConfig, parse_job
 from .defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
@@ -345,7 +345,7 @@ def plan_on_surface(
         raise SpacingTooLargeError(
             f"spacing {spacing:g} mm is too large for {surface.name} "
             f"(its flattened region is {x1 - x0:.4g} x {y1 - y0:.4g} mm): {exc.message}",
-            "Use a smaller --spacing (at most about half the part's width).",
+            resources.units_hint(surface) or "Use a smaller --spacing (at most about half the part's width).",
         ) from None
     return SurfacePlan(planar, spath, float(planar_spacing))
 
@@ -479,6 +479,8 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
 
     with progress.stage("reading surface", timings, "surface"):
         surface = load_surface(cfg.surface, units=cfg.units, scale=cfg.scale, component=cfg.component)
+    resources.check_job(surface, cfg.spacing, feed_mm_min=cfg.feed_mm_min, period_ms=cfg.period_ms,
+                        max_points=cfg.max_points)
     with progress.stage(f"flattening ({cfg.method})", timings, "flatten"):
         flat = flatten(surface, cfg.method)
         region = boundary_region(flat)

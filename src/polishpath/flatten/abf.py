@@ -101,9 +101,9 @@ def abf_angles(
         try:
             d = spla.spsolve(K, -np.concatenate([grad, C]))
         except RuntimeError as exc:
-            raise FlatteningError(f"The ABF Newton system is singular ({exc}).", "Try method='mabf' or 'lscm'.") from exc
+            raise FlatteningError(f"The ABF Newton system is singular ({exc}).", "Try --method mabf or --method lscm.") from exc
         if not np.all(np.isfinite(d)):
-            raise FlatteningError("The ABF Newton step is not finite.", "Try method='mabf' or 'lscm'.")
+            raise FlatteningError("The ABF Newton step is not finite.", "Try --method mabf or --method lscm.")
         da, dl = d[:n], d[n:]
         step = 1.0
         while step > 1e-4 and (np.any(alpha + step * da <= 0) or np.any(alpha + step * da >= np.pi)):

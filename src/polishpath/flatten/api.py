@@ -50,7 +50,7 @@ def normalize_uv(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> np.
     a3 = meshops.surface_area(vertices, faces)
     a2 = float(np.abs(sa).sum())
     if not np.isfinite(a2) or a2 <= 0:
-        raise FlatteningError("The flattening collapsed to zero area.", "Try another method (method='lscm').")
+        raise FlatteningError("The flattening collapsed to zero area.", "Try another method (--method lscm).")
     uv *= np.sqrt(a3 / a2)
     sa = meshops.face_areas(uv, faces, signed=True)
     cent = (uv[faces].mean(axis=1) * sa[:, None]).sum(axis=0) / sa.sum()
@@ -148,7 +148,7 @@ def flatten(
         from .lscm import lscm_uv
 
         if layout is not None:
-            raise ParameterError("method='lscm' computes positions directly and takes no layout.", "Drop the layout option.")
+            raise ParameterError("the lscm method computes positions directly and takes no layout.", "Drop the layout option.")
         t0 = time.perf_counter()
         uv = lscm_uv(v, f, loops[outer_loop_index(v, loops)])
         timings["solve"] = time.perf_counter() - t0
@@ -186,13 +186,13 @@ def flatten(
             angles, res, st = abf_angles(vf, ff, min_angle=min_angle, tol=tol, max_iter=int(options.get("max_iter", 50)), face_weight=fw)
             params.update(weights="inverse_square")
         timings["angles"] = time.perf_counter() - t0
-        extra["iterations"] = float(st["iterations"])
-        extra["converged"] = float(st.get("converged", True))
+        extra["iterations"] = int(st["iterations"])
+        extra["converged"] = bool(st.get("converged", True))
         worst = max(st["max_triangle_residual"], st["max_vertex_residual"], st["max_wheel_residual"])
         if not np.isfinite(worst) or worst > 1e-3:
             raise FlatteningError(
                 f"The {method.upper()} angles did not converge (largest constraint residual {worst:.2g} after {st['iterations']} steps).",
-                "Try weights='inverse_square', a larger min_angle, more max_iter, or method='lscm'.",
+                "Try weights='inverse_square', a larger min_angle, more max_iter, or the lscm method (--method lscm).",
             )
         t0 = time.perf_counter()
         uvf = _layout(layout, vf, ff, angles, solver)
@@ -233,7 +233,7 @@ def flatten(
             raise FlatteningError(
                 f"The {method.upper()} flattening of {surface.name!r} has {nflip} flipped triangle(s) and "
                 f"{nover} crossing boundary-edge pair(s).",
-                "Try another method or layout (method='abf', layout='least_squares'), cut the surface into "
+                "Try another method or layout (--method abf, or layout='least_squares' in Python), cut the surface into "
                 "less curved pieces, or pass check=False to inspect the result.",
             )
     return flat

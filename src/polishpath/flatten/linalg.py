@@ -58,7 +58,7 @@ def spd_backend(backend: str = "auto") -> str:
 def _singular(exc: Exception) -> FlatteningError:
     return FlatteningError(
         f"The sparse system is singular or not positive definite ({exc}).",
-        "The mesh probably has degenerate or duplicate faces; repair it or try method='lscm'.",
+        "The mesh probably has degenerate or duplicate faces; repair it or try --method lscm.",
     )
 
 
@@ -95,7 +95,7 @@ def factor_spd(S: sp.spmatrix, backend: str = "auto") -> Callable[[np.ndarray], 
         except (ValueError, RuntimeError) as exc:
             raise FlatteningError(
                 f"The sparse system is singular or not positive definite ({exc}).",
-                "The mesh probably has degenerate faces; repair it or try method='lscm'.",
+                "The mesh probably has degenerate faces; repair it or try --method lscm.",
             ) from exc
 
         def solve(b: np.ndarray) -> np.ndarray:
@@ -110,7 +110,7 @@ def factor_spd(S: sp.spmatrix, backend: str = "auto") -> Callable[[np.ndarray], 
     except RuntimeError as exc:
         raise FlatteningError(
             f"The sparse system is singular ({exc}).",
-            "The mesh probably has degenerate or duplicate faces; repair it or try method='lscm'.",
+            "The mesh probably has degenerate or duplicate faces; repair it or try --method lscm.",
         ) from exc
     return lu.solve
 

@@ -327,7 +327,7 @@ def _take_step(alpha: np.ndarray, new: np.ndarray, min_angle: float, stop_on_dam
     if not np.all(np.isfinite(new)):
         raise FlatteningError(
             "The MABF solve produced non-finite angles.",
-            "The mesh may have degenerate faces; repair it or try method='lscm'.",
+            "The mesh may have degenerate faces; repair it or try --method lscm.",
         )
     delta = new - alpha
     scale = _damped(alpha, delta, min_angle)

@@ -106,8 +106,8 @@ def flattening_metrics(surface: Surface, uv: np.ndarray) -> dict[str, float]:
         "conformal_ratio_mean": float(np.sum(w[finite] * qc[finite]) / max(w[finite].sum(), 1e-300)),
         "conformal_ratio_max": float(qc[finite].max()) if finite.any() else float("inf"),
         "l2_stretch": float(l2),
-        "flipped_faces": float(np.count_nonzero(flipped_faces(uv, f))),
-        "boundary_self_overlap": float(boundary_self_overlap(uv, f)),
+        "flipped_faces": int(np.count_nonzero(flipped_faces(uv, f))),
+        "boundary_self_overlap": int(boundary_self_overlap(uv, f)),
         "area_3d": float(A3),
         "area_2d": float(A2),
     }

@@ -8,12 +8,13 @@ returns a checked :class:`~polishpath.types.Surface` in millimetres.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import SpecError
+from ..errors import ParameterError, SpecError
 from ..types import Surface
 from .analytic import BUILTINS, builtin_surface, hemisphere_surface, mesh_bspline_surface, mesh_sag_surface
 from .aperture import Aperture
@@ -94,7 +95,15 @@ def load_mesh(path: str | Path, *, units: str | None = None, scale: float | None
     factor = unit_scale(units, scale)
     surf = from_arrays(v, f, name=p.stem, source=str(p), component=component, scale=factor)
     params = dict(surf.params, units=units or "mm", file_vertices=int(len(v)), file_faces=int(len(f)))
-    return Surface(surf.vertices, surf.faces, name=surf.name, source=surf.source, params=params, findings=surf.findings)
+    out = Surface(surf.vertices, surf.faces, name=surf.name, source=surf.source, params=params, findings=surf.findings)
+    from ..resources import units_hint
+
+    hint = units_hint(out) if units is None and scale is None else ""
+    if hint:
+        from ..types import Finding
+
+        out = dataclasses.replace(out, findings=out.findings + (Finding("units", hint, 0, False, "warning"),))
+    return out
 
 
 def load_surface(
@@ -120,6 +129,9 @@ def load_surface(
     >>> s = load_surface("hemisphere:R=30,triangles=1119")  # doctest: +SKIP
     >>> s = load_surface("part.stl", units="m")  # doctest: +SKIP
     """
+    if component not in COMPONENT_CHOICES:
+        raise ParameterError(f"--component must be 'refuse' or 'largest', got {component!r}.",
+                             "'refuse' (default) stops at a mesh of several pieces; 'largest' keeps the largest piece.")
     if isinstance(spec, Surface):
         return spec
     text = str(spec)
@@ -130,6 +142,8 @@ def load_surface(
     if suffix in MESH_FORMATS or p.exists() or "/" in text or "\\" in text:
         return load_mesh(p, units=units, scale=scale, component=component)
     name, params = parse_inline(text)
+    if (name in BUILTINS or name in ANALYTIC_TYPES) and (units is not None or scale is not None):
+        _refuse_mesh_options(text, units, scale)
     if name in BUILTINS:
         return builtin_surface(name, params, source=text)
     if name in ANALYTIC_TYPES:
@@ -146,11 +160,25 @@ def load_surface(
     )
 
 
+COMPONENT_CHOICES = ("refuse", "largest")
+
+
+def _refuse_mesh_options(what: str, units: str | None, scale: float | None) -> None:
+    given = " and ".join(x for x, v in (("--units", units), ("--scale", scale)) if v is not None)
+    raise ParameterError(
+        f"{given} applies to mesh files only, and {what!r} is not one: built-in and analytic surfaces are in mm.",
+        "Drop the option, or give the sizes in mm (e.g. hemisphere:R=30).",
+    )
+
+
 def load_toml_surface(path: Path, **kw: Any) -> Surface:
     """A surface from a TOML spec file (see :mod:`polishpath.surfaces.spec`)."""
     data = read_toml(path)
     if "surface" not in data or not isinstance(data["surface"], dict):
-        raise SpecError(f"{path.name} has no [surface] table.", "See examples/zernike-annulus.toml for the format.")
+        raise SpecError(f"{path.name} has no [surface] table.", 
+                        'A surface spec starts with a [surface] table, e.g. [surface] type = "sphere", R = 100, '
+                        'triangles = 5000, then [aperture] type = "circle", radius = 25 (examples/surface-asphere.toml '
+                        "in the source tree).")
     s = dict(data["surface"])
     if "mesh" in s:
         mesh = Path(s.pop("mesh"))
@@ -158,6 +186,8 @@ def load_toml_surface(path: Path, **kw: Any) -> Surface:
             mesh = path.parent / mesh
         return load_mesh(mesh, units=s.pop("units", kw.get("units")), scale=s.pop("scale", kw.get("scale")),
                          component=s.pop("component", kw.get("component", "refuse")))
+    if kw.get("units") is not None or kw.get("scale") is not None:
+        _refuse_mesh_options(str(path), kw.get("units"), kw.get("scale"))
     if "builtin" in s:
         name = s.pop("builtin")
         return builtin_surface(name, s, source=str(path))

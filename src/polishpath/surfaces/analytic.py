@@ -233,6 +233,43 @@ BUILTINS: dict[str, Builtin] = {
 }
 
 
+#: sane range of a built-in's size-like parameters (extents), mm: a micrometre to 100 m
+EXTENT_RANGE_MM = (1e-3, 1e5)
+_EXTENTS = {"size", "radius", "chord", "span", "length", "width", "wavelength", "inner_radius"}
+_CURVATURE_RADII = {"R", "Rx", "Ry"}  # signed; any size (a large radius is a nearly flat part)
+_SIGNED_HEIGHTS = {"amplitude", "height", "offset"}
+
+
+def check_builtin_parameter(name: str, key: str, value: float) -> None:
+    """Refuse a built-in parameter outside its sane range, naming the range.
+
+    Extents (sizes, radii of the outline, the hemisphere's R) must lie in
+    :data:`EXTENT_RANGE_MM`; curvature radii must be at least 1 um in size;
+    heights at most 100 m; the airfoil's thickness is a fraction of the chord.
+    Infinite and NaN values are refused everywhere.
+    """
+    lo, hi = EXTENT_RANGE_MM
+    if not math.isfinite(value):
+        raise SpecError(f"parameter {key} of {name!r} must be finite, got {value!r}.")
+    if key == "triangles":
+        return  # the mesher checks the count and the memory it needs
+    extent = key in _EXTENTS or (name == "hemisphere" and key == "R")
+    if extent and value <= 0:
+        raise SpecError(f"{name} parameter {key} must be > 0 mm, got {value:g}.")
+    if extent and not lo <= value <= hi:
+        raise SpecError(
+            f"{name} parameter {key}={value:g} mm is outside the range polishpath meshes ({lo:g} to {hi:g} mm).",
+            "Built-in sizes are in millimetres: e.g. hemisphere:R=30 is a 30 mm dome.",
+        )
+    if not extent and key in _CURVATURE_RADII and abs(value) < lo:
+        raise SpecError(f"{name} parameter {key}={value:g} mm is a radius of curvature under {lo:g} mm.",
+                        "Radii of curvature are in millimetres.")
+    if key in _SIGNED_HEIGHTS and abs(value) > hi:
+        raise SpecError(f"{name} parameter {key}={value:g} mm is larger than {hi:g} mm.", "Heights are in millimetres.")
+    if key == "thickness" and not 0 < value <= 1:
+        raise SpecError(f"airfoil thickness is a fraction of the chord in (0, 1], got {value:g}.", "e.g. thickness=0.12.")
+
+
 def builtin_surface(name: str, params: dict | None = None, source: str | None = None) -> Surface:
     """Make a built-in surface by name with optional parameters.
 
@@ -259,15 +296,13 @@ def builtin_surface(name: str, params: dict | None = None, source: str | None = 
         )
     kw = {}
     for k, v in params.items():
-        d = b.defaults[k]
         try:
             kw[k] = int(v) if k == "triangles" else (float(v) if v is not None else None)
         except (TypeError, ValueError):
             raise SpecError(f"parameter {k} of {name!r} must be a number, got {v!r}.") from None
         if k == "triangles" and float(v) != int(float(v)):
             raise SpecError(f"triangles must be a whole number, got {v!r}.")
-        if kw[k] is not None and not np.isfinite(kw[k]):
-            raise SpecError(f"parameter {k} of {name!r} must be finite, got {v!r}.")
-        del d
+        if kw[k] is not None:
+            check_builtin_parameter(name, k, kw[k])
     src = source or (name + (":" + ",".join(f"{k}={v}" for k, v in params.items()) if params else ""))
     return b.make(**kw, source=src)

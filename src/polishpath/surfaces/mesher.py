@@ -21,6 +21,29 @@ from .aperture import Aperture
 
 MIN_ANGLE_DEG = 30.0
 COUNT_TOLERANCE = 0.01
+#: refuse when the count reached is further than this from the request (small counts the outline cannot meet)
+COUNT_REFUSE = 0.10
+MAX_TRIANGLES = 20_000_000
+
+
+def area_switch(area: float) -> str:
+    """Triangle's ``a`` switch value: plain decimal digits, never an exponent.
+
+    Triangle reads the number after ``a`` as digits and ``.`` only, so
+    ``1.05e+13`` would be read as area 1.05 followed by the ``e`` switch (a
+    fine mesh of a huge domain that exhausts memory).
+
+    Parameters
+    ----------
+    area : float
+        Maximum triangle area (> 0, finite), in the domain's units squared.
+    """
+    if not (math.isfinite(area) and area > 0):
+        raise ParameterError(f"the mesher's triangle area bound must be a positive number, got {area!r}.")
+    text = np.format_float_positional(float(area), precision=12, unique=False, fractional=False, trim="-")
+    if float(text) <= 0:  # pragma: no cover - precision=12 significant digits keeps tiny areas non-zero
+        raise ParameterError(f"triangle area bound {area!r} is too small to write.")
+    return text
 
 
 def _hole_points(loops: list[np.ndarray]) -> np.ndarray:
@@ -81,15 +104,20 @@ def triangulate_domain(
     """
     import triangle as tr
 
+    from .. import resources
+
     if triangles < 2:
         raise ParameterError(f"a surface needs at least 2 triangles, got {triangles}.")
-    if triangles > 20_000_000:
-        raise ParameterError(f"{triangles} triangles is more than polishpath meshes (20 million).")
+    if triangles > MAX_TRIANGLES:
+        raise ParameterError(f"{triangles} triangles is more than polishpath meshes (20 million).",
+                             "Ask for fewer triangles (triangles=...).")
+    resources.check(resources.estimate(triangles), "this mesh",
+                    "Ask for fewer triangles (triangles=...).")
     J = area_scale if area_scale is not None else (lambda p: np.ones(len(p)))
 
     # estimate the 3D area from a fine sampling of the domain
     base = _pslg(aperture.loops(math.sqrt(aperture.area()) / 40))
-    coarse = tr.triangulate(base, f"pq{min_angle}a{aperture.area() / 3000:.12g}")
+    coarse = tr.triangulate(base, f"pq{min_angle}a{area_switch(aperture.area() / 3000)}")
     cv, cf = coarse["vertices"], coarse["triangles"]
     cen = cv[cf].mean(axis=1)
     carea = _areas(cv, cf)
@@ -106,7 +134,7 @@ def triangulate_domain(
         edge3 = math.sqrt(4.0 * a3 / math.sqrt(3.0))
         # boundary spacing in the domain at the local scale of the boundary
         pslg = _pslg(aperture.loops(edge3 / math.sqrt(jbnd)))
-        first = tr.triangulate(pslg, f"pq{min_angle}a{a3 / jmin:.12g}")
+        first = tr.triangulate(pslg, f"pq{min_angle}a{area_switch(a3 / jmin)}")
         if jmax / jmin > 1.01:
             cen = first["vertices"][first["triangles"]].mean(axis=1)
             first["triangle_max_area"] = (a3 / np.maximum(J(cen), 1e-12)).reshape(-1, 1)
@@ -120,7 +148,15 @@ def triangulate_domain(
         if abs(err) <= COUNT_TOLERANCE:
             break
         scale *= (nf / triangles) ** 1.0
-    res = best[1]
+    err, res = best
+    if abs(err) > COUNT_REFUSE:
+        n_got = len(res["triangles"])
+        raise ParameterError(
+            f"asked for {triangles} triangles; the closest quality mesh of this outline has {n_got} "
+            f"({100 * err:+.0f} %).",
+            f"Ask for at least {max(int(math.ceil(n_got * 1.2)), 2 * triangles)} triangles." if err > 0
+            else f"Ask for {n_got} triangles or fewer.",
+        )
     uv = np.asarray(res["vertices"], dtype=np.float64)
     faces = np.asarray(res["triangles"], dtype=np.int64)
     # Triangle keeps input vertices even when unused (never here, but be safe)

@@ -7,7 +7,7 @@ A SURFACE argument is one of
   ``hemisphere:R=30,triangles=100220``;
 * an analytic surface with scalar parameters:
   ``asphere:R=80,k=-1,a4=1e-7,aperture=annulus,radius=25,inner_radius=6``;
-* a ``.toml`` spec file (see ``examples/zernike-annulus.toml``):
+* a ``.toml`` spec file (see ``examples/surface-zernike-annulus.toml``):
 
   .. code-block:: toml
 
@@ -64,7 +64,13 @@ def parse_inline(spec: str) -> tuple[str, dict[str, Any]]:
                     "Write parameters as name:key=value,key=value, e.g. hemisphere:R=30,triangles=5000.",
                 )
             k, _, v = item.partition("=")
-            params[k.strip()] = _number(v.strip())
+            k = k.strip()
+            if k in params:
+                raise SpecError(
+                    f"surface parameter {k} is given twice in {spec!r} ({params[k]!r} and {_number(v.strip())!r}).",
+                    f"Give {k} once.",
+                )
+            params[k] = _number(v.strip())
     return name, params
 
 
@@ -103,17 +109,32 @@ def aperture_from_dict(d: dict[str, Any]) -> Aperture:
                         f"Aperture parameters: {', '.join(sorted(_APERTURE_KEYS))}.")
     kw: dict[str, Any] = {"kind": kind}
     for k, v in d.items():
-        if k == "points":
-            kw[k] = tuple(tuple(map(float, p)) for p in v)
-        elif k == "holes":
-            kw[k] = tuple(tuple(tuple(map(float, p)) for p in h) for h in v)
-        elif k == "center":
-            kw[k] = tuple(map(float, v))
-        elif k == "n_points":
-            kw[k] = int(v)
-        else:
-            kw[k] = float(v)
+        try:
+            kw[k] = _aperture_value(k, v)
+        except (TypeError, ValueError):
+            raise SpecError(f"aperture parameter {k} must be {'a list of points' if k in ('points', 'holes', 'center') else 'a number'}"
+                            f", got {v!r}.", "e.g. radius = 25.0 (mm).") from None
     return Aperture(**kw)
+
+
+def _aperture_value(k: str, v: Any) -> Any:
+    """One aperture parameter as its type; TypeError / ValueError for a wrong value."""
+    if isinstance(v, bool):
+        raise TypeError(k)
+    if k == "points":
+        return tuple(tuple(map(float, p)) for p in v)
+    if k == "holes":
+        return tuple(tuple(tuple(map(float, p)) for p in h) for h in v)
+    if k == "center":
+        return tuple(map(float, v))
+    if k == "n_points":
+        if float(v) != int(float(v)):
+            raise ValueError(k)
+        return int(v)
+    out = float(v)
+    if not math.isfinite(out):
+        raise ValueError(k)
+    return out
 
 
 def _curvature(d: dict[str, Any]) -> float:
@@ -164,7 +185,10 @@ def analytic_from_dict(surface: dict[str, Any], aperture: dict[str, Any] | None,
     kind = d.pop("type")
     if kind not in ANALYTIC_TYPES:
         raise SpecError(f"unknown analytic surface type {kind!r}.", f"Choose one of: {', '.join(ANALYTIC_TYPES)}.")
-    triangles = int(d.pop("triangles", 5000))
+    triangles = d.pop("triangles", 5000)
+    if isinstance(triangles, bool) or not isinstance(triangles, (int, float)) or float(triangles) != int(triangles):
+        raise SpecError(f"{kind} surface: triangles must be a whole number, got {triangles!r}.", "e.g. triangles = 8000.")
+    triangles = int(triangles)
     d.pop("units", None)
     params = {"type": kind, **{k: v for k, v in surface.items() if k != "type"}}
     try:
