@@ -8,7 +8,7 @@ Every module and package under ``src/polishpath`` is a unit of one of these
 layers, and the rule below covers every unit, with no exception:
 
 * the **core** (types, errors, meshops, pathops, progress, fileio, runfolder,
-  provenance, defaults, _version) imports only the core;
+  provenance, defaults, resources, _version) imports only the core;
 * a **stage** imports the core and stages upstream of it (earlier in ORDER),
   never one downstream: a stage that needs a later stage's result is wrong
   about where it sits in the flow (the planner and the flattening do not use
@@ -36,7 +36,8 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
-CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "provenance", "defaults", "_version"}
+CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "provenance", "defaults", "resources",
+        "_version"}
 # every other unit, upstream first; psd (measurement readers, PSD maths: core imports only) sits before
 # dwell (figuring), which reads error maps with it
 ORDER = ["surfaces", "flatten", "plan", "mapping", "psd", "dwell", "smooth", "schedule", "export", "simulate", "report",

@@ -465,6 +465,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     """
     from .flatten import boundary_region, flatten
     from .plan import path_metrics
+    from .defaults import DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
     from .smooth import smooth
     from .surfaces import load_surface
 
@@ -479,8 +480,8 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
 
     with progress.stage("reading surface", timings, "surface"):
         surface = load_surface(cfg.surface, units=cfg.units, scale=cfg.scale, component=cfg.component)
-    resources.check_job(surface, cfg.spacing, feed_mm_min=cfg.feed_mm_min, period_ms=cfg.period_ms,
-                        max_points=cfg.max_points)
+    resources.check_job(surface, cfg.spacing, feed_mm_min=cfg.feed_mm_min or DEFAULT_FEED_MM_MIN,
+                        period_ms=cfg.period_ms or DEFAULT_PERIOD_MS, max_points=cfg.max_points)
     with progress.stage(f"flattening ({cfg.method})", timings, "flatten"):
         flat = flatten(surface, cfg.method)
         region = boundary_region(flat)

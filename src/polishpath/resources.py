@@ -1,4 +1,4 @@
-"""Resource guards: estimate what a job will need before building anything, refuse what cannot fit.
+"""Resource guards (core: no stage imports): estimate what a job will need before building anything, refuse what cannot fit.
 
 A single parameter can ask for more than a machine has (``hemisphere:R=1e9``
 with a 0.5 mm spacing is 10^19 dwell points). The guards here estimate, from
@@ -263,8 +263,7 @@ SMALL_PART_MM = 5.0
 LARGE_PART_MM = 1e5
 
 
-def check_job(surface, spacing_mm: float, *, feed_mm_min: float | None, period_ms: float | None,
-              max_points: int) -> Estimate:
+def check_job(surface, spacing_mm: float, *, feed_mm_min: float, period_ms: float, max_points: int) -> Estimate:
     """Refuse a planning job that cannot fit, from the surface and the options alone (before flattening).
 
     Parameters
@@ -273,8 +272,8 @@ def check_job(surface, spacing_mm: float, *, feed_mm_min: float | None, period_m
         The part, mm.
     spacing_mm : float
         Dwell-point spacing on the part, mm.
-    feed_mm_min, period_ms : float or None
-        Machine feed and interpolation period (None: the smoothing defaults).
+    feed_mm_min, period_ms : float
+        Machine feed (mm/min) and interpolation period (ms).
     max_points : int
         The job's dwell-point limit.
 
@@ -289,7 +288,6 @@ def check_job(surface, spacing_mm: float, *, feed_mm_min: float | None, period_m
 
     from . import meshops
     from .errors import SpacingTooLargeError
-    from .smooth import DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
 
     v = surface.vertices
     ext = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
@@ -300,7 +298,7 @@ def check_job(surface, spacing_mm: float, *, feed_mm_min: float | None, period_m
             "fewer than two dwell points fit.", hint)
     area = meshops.surface_area(v, surface.faces)
     est = estimate(surface.n_faces, area_mm2=area, spacing_mm=spacing_mm,
-                   feed_mm_min=feed_mm_min or DEFAULT_FEED_MM_MIN, period_ms=period_ms or DEFAULT_PERIOD_MS)
+                   feed_mm_min=feed_mm_min, period_ms=period_ms)
     uniform = est.dwell_points / DWELL_POINTS_PER_CELL
     way_out = (f"Use a larger --spacing (the count goes with 1 / spacing^2), or plan part of the surface. "
                + units_hint(surface))
