@@ -92,7 +92,7 @@ def test_more_points_than_max_points_refused_early(tmp_path):
 
 
 @pytest.mark.parametrize("spec, needle", [
-    ("saddle:size=0", "size=0"),
+    ("saddle:size=0", "size must be > 0"),
     ("saddle:size=1e7", "outside the range"),
     ("airfoil:thickness=3", "fraction of the chord"),
     ("sinusoidal:amplitude=1e9", "larger than"),
@@ -222,3 +222,82 @@ def test_every_file_a_message_or_docstring_names_exists():
     assert named, "the scan found nothing: the pattern is wrong"
     missing = sorted(f"{m} (named in {where})" for m, where in named if not (REPO / m).exists())
     assert not missing, missing
+
+
+# --- 2. file integrity ---------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def mesh_files(tmp_path_factory):
+    """A small hemisphere as good ASCII/binary PLY, binary STL and OFF, plus damaged copies."""
+    import trimesh
+
+    from polishpath.surfaces import load_surface
+
+    d = tmp_path_factory.mktemp("meshes")
+    s = load_surface("hemisphere:R=10,triangles=800")
+    m = trimesh.Trimesh(s.vertices, s.faces, process=False)
+    nv = len(s.vertices)
+    (d / "ok.ply").write_bytes(m.export(file_type="ply", encoding="ascii"))
+    (d / "okb.ply").write_bytes(m.export(file_type="ply", encoding="binary"))
+    (d / "ok.stl").write_bytes(m.export(file_type="stl"))
+    (d / "ok.off").write_text(m.export(file_type="off"))
+    text = (d / "ok.ply").read_text()
+    (d / "more-vertices.ply").write_text(text.replace(f"element vertex {nv}", f"element vertex {nv + 50}"))
+    (d / "faces-short.ply").write_text("\n".join(text.splitlines()[:-100]) + "\n")
+    b = (d / "ok.stl").read_bytes()
+    (d / "trunc.stl").write_bytes(b[: len(b) // 2])
+    (d / "appended.stl").write_bytes(b + b[84:84 + 500])
+    t = m.export(file_type="stl_ascii")
+    (d / "ok-ascii.stl").write_text(t)
+    (d / "trunc-ascii.stl").write_text(t[: len(t) // 2])
+    b = (d / "okb.ply").read_bytes()
+    (d / "trunc-bin.ply").write_bytes(b[:-500])
+    o = (d / "ok.off").read_text().splitlines()
+    (d / "trunc.off").write_text("\n".join(o[:-60]) + "\n")
+    v = s.vertices.copy()
+    v[5, 0] = 1e9
+    (d / "far.ply").write_bytes(trimesh.Trimesh(v, s.faces, process=False).export(file_type="ply", encoding="ascii"))
+    (d / "offset.ply").write_bytes(trimesh.Trimesh(s.vertices + [1e6, 0, 0], s.faces, process=False)
+                                   .export(file_type="ply", encoding="ascii"))
+    return d, len(s.faces)
+
+
+@pytest.mark.parametrize("name", ["ok.ply", "okb.ply", "ok.stl", "ok-ascii.stl", "ok.off", "offset.ply"])
+def test_good_files_read_whole(mesh_files, name):
+    d, nf = mesh_files
+    r = cli("info", d / name, "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["faces"] == nf
+
+
+@pytest.mark.parametrize("name, needles", [
+    ("more-vertices.ply", ["header declares", "473 vertices", "fewer", "truncated"]),
+    ("faces-short.ply", ["header declares", "804 faces", "fewer", "truncated"]),
+    ("trunc.stl", ["truncated binary STL", "804 triangles", "401 complete"]),
+    ("appended.stl", ["804 triangles", "more"]),
+    ("trunc-ascii.stl", ["ASCII STL", "endsolid", "truncated"]),
+    ("trunc-bin.ply", ["truncated binary PLY"]),
+    ("trunc.off", ["truncated", "804 faces", "744 face lines"]),
+    ("far.ply", ["far from every neighbour", "1e+09", "corrupt coordinate"]),
+])
+def test_damaged_files_named_as_damaged(mesh_files, name, needles, tmp_path):
+    d, _ = mesh_files
+    err = refused(cli("plan", d / name, "-o", tmp_path / "o", "-q"), *needles)
+    assert "non-manifold" not in err and "charset" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_merge_tolerance_follows_edge_lengths_not_the_box():
+    # a 20 um dome (edges ~1.3 um) beside a copy 10 m away: the box-relative tolerance
+    # (1e-9 x 1e4 mm = 10 um) merged every vertex of the dome; the edge-relative one merges none
+    from polishpath.surfaces import load_surface
+    from polishpath.surfaces.validate import validate_mesh
+
+    s = load_surface("hemisphere:R=10,triangles=800")
+    v = s.vertices * 1e-3
+    v2 = np.vstack([v, v + [1e4, 0, 0]])
+    f2 = np.vstack([s.faces, s.faces + len(v)])
+    vv, ff, findings = validate_mesh(v2, f2, component="largest")
+    assert not any(x.code in ("duplicate_vertices", "degenerate_faces") for x in findings), findings
+    assert len(ff) == s.n_faces and len(vv) == len(v)

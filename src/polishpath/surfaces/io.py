@@ -1,4 +1,10 @@
-"""Reading mesh files (STL ascii/binary, OBJ, PLY, OFF) through trimesh."""
+"""Reading mesh files (STL ascii/binary, OBJ, PLY, OFF) through trimesh.
+
+The counts a file declares (binary STL triangle count, PLY elements, OFF
+header) are checked against its size and data before and after reading
+(:mod:`polishpath.surfaces.integrity`), so a truncated file is reported as
+truncated instead of loading as a smaller mesh.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshFileError, ParameterError
+from .integrity import check_after_reading, check_before_reading
 
 MESH_FORMATS = ("stl", "obj", "ply", "off")
 
@@ -74,9 +81,13 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         )
     if p.stat().st_size == 0:
         raise MeshFileError(f"mesh file {p.name} is empty.", "Export the mesh again.")
+    declared = check_before_reading(p, ext)
     kwargs = {"maintain_order": True} if ext == "obj" else {}
     try:
         mesh = trimesh.load(str(p), file_type=ext, process=False, force="mesh", **kwargs)
+    except ImportError as exc:  # a reader fell through to an optional decoder (trimesh's text guess)
+        raise MeshFileError(f"could not read {p.name} as {ext.upper()}: it is neither a complete binary file nor "
+                            f"plain text ({exc}).", "Is the file complete and of that format?") from None
     except Exception as exc:  # trimesh raises many kinds; all mean "unreadable"
         raise MeshFileError(f"could not read {p.name} as {ext.upper()}: {exc}", "Is the file complete and of that format?") from None
     v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
@@ -86,4 +97,6 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             f"{p.name} holds no triangles ({len(v)} vertices, {len(f)} faces).",
             "Is it a point cloud or an empty export? polishpath needs a triangle mesh.",
         )
-    return v, f.reshape(-1, 3)
+    f = f.reshape(-1, 3)
+    check_after_reading(p, declared, len(v), len(f))
+    return v, f

@@ -28,8 +28,10 @@ from ..errors import (
 from ..types import Finding
 
 SLIVER_ANGLE_DEG = 1.0
-MERGE_TOLERANCE = 1e-9  # relative to the bounding-box diagonal
-ZERO_AREA = 1e-14  # face area relative to the squared bounding-box diagonal
+MERGE_TOLERANCE = 1e-6  # relative to the median edge length (not the box: one far vertex must not merge the rest)
+ZERO_AREA = 1e-10  # face area relative to the squared median edge length
+#: an edge this many times the median edge length means a corrupt coordinate, not a part
+OUTLIER_EDGE_RATIO = 1e5
 
 
 def _fmt_pts(p: np.ndarray, k: int = 3) -> str:
@@ -82,6 +84,36 @@ def _merge_vertices_safely(vertices, faces, tol):
         verts, faces_out, n_kept = vertices[first], merged_faces, 0
     n_merged = len(vertices) - len(verts)
     return verts, faces_out, int(n_merged), n_kept
+
+
+def _edge_scale(v: np.ndarray, f: np.ndarray) -> float:
+    """Median length of the mesh's non-zero edges, mm (1.0 when every edge has zero length)."""
+    e = np.concatenate([np.linalg.norm(v[f[:, (k + 1) % 3]] - v[f[:, k]], axis=1) for k in range(3)])
+    e = e[e > 0]
+    return float(np.median(e)) if len(e) else 1.0
+
+
+def _refuse_outliers(v: np.ndarray, f: np.ndarray, scale: float, name: str) -> None:
+    """Refuse vertices whose every edge is enormous next to the median edge (a corrupt coordinate)."""
+    e = np.stack([np.linalg.norm(v[f[:, (k + 1) % 3]] - v[f[:, k]], axis=1) for k in range(3)], axis=1)
+    long = e > OUTLIER_EDGE_RATIO * scale
+    if not long.any():
+        return
+    n = len(v)
+    touched = np.zeros(n, bool)
+    short_at = np.zeros(n, bool)
+    for k in range(3):
+        for a in (f[:, k], f[:, (k + 1) % 3]):
+            touched[a[long[:, k]]] = True
+            short_at[a[~long[:, k]]] = True
+    far = np.nonzero(touched & ~short_at)[0]
+    if len(far) == 0:  # long edges between ordinary vertices: a long sliver, not a stray coordinate
+        return
+    raise MeshError(
+        f"{name} has {len(far)} vertices far from every neighbour (edges up to {e.max():.4g} mm where the median "
+        f"edge is {scale:.4g} mm), e.g. vertex {far[0]} at {_fmt_pts(v[far])} mm: a corrupt coordinate.",
+        "Fix or remove that vertex in the exporting program or a mesh editor.",
+    )
 
 
 def _orient_consistently(faces: np.ndarray) -> tuple[np.ndarray, int]:
@@ -226,10 +258,14 @@ def validate_mesh(
             f"{name} has {len(idx)} vertices with NaN or infinite coordinates (first at index {idx[0]}).",
             "Fix or remove them in the exporting program; polishpath will not guess positions.",
         )
+    # 0. the length scale of the mesh: its median edge (the bounding box would
+    #    let one far-off vertex set the tolerance for all the others)
+    scale = _edge_scale(v, f)
+    _refuse_outliers(v, f, scale, name)
     # 1. duplicate vertices: merge, except where the merge would join two sheets
     #    that only touch (a bow-tie or a non-manifold seam): those stay apart
-    diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) or 1.0
-    v, f, n_dup, n_kept = _merge_vertices_safely(v, f, MERGE_TOLERANCE * diag)
+    tol = max(MERGE_TOLERANCE * scale, 4.0 * np.finfo(np.float64).eps * float(np.abs(v).max()))
+    v, f, n_dup, n_kept = _merge_vertices_safely(v, f, tol)
     if n_dup:
         findings.append(Finding("duplicate_vertices", f"merged {n_dup} duplicate vertices", n_dup, True, "warning"))
     if n_kept:
@@ -245,7 +281,7 @@ def validate_mesh(
         if len(f) == 0:
             break
         area = meshops.face_areas(v, f)
-        zero = area <= ZERO_AREA * diag * diag
+        zero = area <= ZERO_AREA * scale * scale
         if not zero.any():
             break
         p = v[f[zero]]
