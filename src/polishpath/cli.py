@@ -184,6 +184,13 @@ def _quiet(quiet: bool, json_out: bool) -> None:
 SURFACE_ARG = typer.Argument(..., metavar="SURFACE", help="Mesh file, built-in name[:key=value,...], analytic spec, or .toml spec.")
 UNITS_OPT = typer.Option(None, "--units", help="Units of a mesh file: mm (default), m, cm, um, in.")
 SCALE_OPT = typer.Option(None, "--scale", help="Extra scale factor for a mesh file, to millimetres.")
+def _remesh_help() -> str:
+    from .config import FIELDS
+
+    return FIELDS["remesh"].metadata["help"]
+
+
+REMESH_HELP = _remesh_help()
 COMPONENT_OPT = typer.Option("refuse", "--component", help="Several pieces in the mesh: 'refuse' (default) or 'largest'.")
 
 
@@ -251,6 +258,7 @@ def flatten_cmd(
     surface: str = SURFACE_ARG,
     method: str = typer.Option("mabf", "--method", "-m", help="mabf (default), abf, lscm, projection."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", help="Write an OBJ: v = 3D, vt = planar (mm)."),
+    remesh: str = typer.Option("auto", "--remesh", help=REMESH_HELP),
     json_out: bool = typer.Option(False, "--json", help="Print the distortion metrics as JSON."),
     units: Optional[str] = UNITS_OPT,
     scale: Optional[float] = SCALE_OPT,
@@ -265,6 +273,7 @@ def flatten_cmd(
     from .fileio import atomic_open
     from .flatten import flatten
     from .surfaces import load_surface
+    from .surfaces.remesh import conformal_warning, fit_for_flattening, parse_remesh
 
     _quiet(quiet, json_out)
     with _guard(output):
@@ -280,10 +289,14 @@ def flatten_cmd(
                 " a flattening needs its planar coordinates, which STL, PLY and OFF have no place for.",
                 f"Name the output {output.with_suffix('.obj').name}.",
             )
+        mode = parse_remesh(remesh)
         with progress.stage("reading surface"):
             s = load_surface(surface, units=units, scale=scale, component=component)
         with progress.stage(f"flattening ({method})"):
+            s = fit_for_flattening(s, remesh)
             flat = flatten(s, method)
+        if warning := conformal_warning(s, flat.metrics):
+            progress.warn(warning)
         if output is not None:
             from .flatten import save_obj
 
@@ -291,11 +304,15 @@ def flatten_cmd(
             with atomic_open(output, "w") as fh:
                 save_obj(flat, fh)
         d = {"surface": s.source or s.name, "method": method, "vertices": s.n_vertices, "faces": s.n_faces,
+             "remesh": s.params.get("remesh", {"mode": mode[0], "applied": False}),
              "metrics": flat.metrics, "timings_s": flat.timings, "output": str(output) if output else None}
         if json_out:
             _print_json(d)
             return
         typer.echo(f"{s.name}: {s.n_faces} faces flattened with {method}")
+        if "remesh" in s.params:
+            rm = s.params["remesh"]
+            typer.echo(f"  remeshed: {rm['faces_before']} -> {rm['faces_after']} faces, edges <= {rm['edge_mm']:.3g} mm ({rm['reason']})")
         for k, v in flat.metrics.items():
             typer.echo(f"  {k:32s} {v:.6g}" if isinstance(v, float) else f"  {k:32s} {v}")
         for k, v in flat.timings.items():

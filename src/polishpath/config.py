@@ -72,6 +72,22 @@ def parse_pair(text: str, opt: str = "--start", what: str = "'u,v' in mm") -> tu
     return a, b
 
 
+def remesh_choice(text: str) -> str:
+    """``--remesh`` text checked: ``auto``, ``off`` or a positive edge length in mm (as given)."""
+    t = str(text).strip().lower()
+    if t in ("auto", "off"):
+        return t
+    try:
+        ok = math.isfinite(float(t)) and float(t) > 0
+    except ValueError:
+        ok = False
+    if not ok:
+        raise ParameterError(f"--remesh must be auto, off or an edge length in mm, got {text!r}.",
+                             "auto (default) refines CAD-style sliver meshes only; off keeps the mesh; "
+                             "a number (e.g. 0.5) refines every edge longer than that many mm.")
+    return t
+
+
 @dataclass(frozen=True)
 class JobConfig:
     """Every option of the main job. Lengths in mm, feed in mm/min, period in ms.
@@ -138,6 +154,10 @@ class JobConfig:
         :data:`ERROR_MAP_KEYS`).
     report : bool
         Write ``report.html`` and PNG figures.
+    remesh : str
+        ``auto`` (default): refine a CAD-style sliver tessellation exactly
+        before flattening (see :mod:`polishpath.surfaces.remesh`); ``off``;
+        or an edge length in mm (as text) to refine every longer edge to.
     max_points : int
         Refuse to plan more dwell points than this.
     max_oversampling : float
@@ -216,6 +236,9 @@ class JobConfig:
     error_map_options: dict[str, Any] | None = option(
         None, help="The [error_map] table of a job TOML (docs/figuring.md).")
     report: bool = option(True, "--report/--no-report", help="Write report.html and the PNG figures (default: yes).")
+    remesh: str = option("auto", "--remesh", parse=remesh_choice, cli_type=str,
+                         help="Refine a CAD-style sliver mesh before flattening, keeping its surface exactly: 'auto' "
+                              "(default: only when slivers cover > 5 % of the area), 'off', or an edge length in mm.")
     max_points: int = option(5_000_000, "--max-points", help="Refuse to plan more dwell points than this.",
                              positive=True)
     max_oversampling: float = option(

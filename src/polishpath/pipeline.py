@@ -468,6 +468,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     from .defaults import DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
     from .smooth import smooth
     from .surfaces import load_surface
+    from .surfaces.remesh import conformal_warning, fit_for_flattening
 
     cfg = parse_job(base=config, **options)
     cfg = dataclasses.replace(cfg, seed=resolve_seed(cfg.seed))
@@ -483,8 +484,11 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     resources.check_job(surface, cfg.spacing, feed_mm_min=cfg.feed_mm_min or DEFAULT_FEED_MM_MIN,
                         period_ms=cfg.period_ms or DEFAULT_PERIOD_MS, max_points=cfg.max_points)
     with progress.stage(f"flattening ({cfg.method})", timings, "flatten"):
+        surface = fit_for_flattening(surface, cfg.remesh)
         flat = flatten(surface, cfg.method)
         region = boundary_region(flat)
+    if warning := conformal_warning(surface, flat.metrics):
+        progress.warn(warning)
     smooth_kw = {k: getattr(cfg, k) for k in ("feed_mm_min", "period_ms", "chord_tol_mm") if getattr(cfg, k) is not None}
     smooth_kw["integrator"] = cfg.integrator
     if machine is not None:

@@ -134,3 +134,13 @@ def stage(label: str, timings: dict | None = None, key: str | None = None) -> It
         dt = time.perf_counter() - t0
     if timings is not None:
         timings[key or label] = dt
+
+
+def warn(message: str) -> None:
+    """Print ``polishpath: warning: message`` on stderr, whether or not progress is shown.
+
+    Warnings say that something was assumed or stays doubtful (a unit taken as
+    a default, a flattening far from conformal); they never go to stdout, so
+    ``--json`` output stays clean.
+    """
+    print(f"polishpath: warning: {message}", file=sys.stderr, flush=True)

@@ -231,5 +231,6 @@ def describe_surface(surface: Surface) -> dict[str, Any]:
         "euler_characteristic": int(len(v) - len(edges) + len(f)),
         "disc_like": len(loops) == 1 and (len(v) - len(edges) + len(f)) == 1,
         "findings": [x.to_dict() for x in surface.findings],
+        "remesh": surface.params.get("remesh", {"applied": False}),
         "params": surface.params,
     }
