@@ -301,3 +301,81 @@ def test_merge_tolerance_follows_edge_lengths_not_the_box():
     vv, ff, findings = validate_mesh(v2, f2, component="largest")
     assert not any(x.code in ("duplicate_vertices", "degenerate_faces") for x in findings), findings
     assert len(ff) == s.n_faces and len(vv) == len(v)
+
+
+# --- 6. measurements ----------------------------------------------------------------------------
+
+
+def _profile(path: Path, z, x=None, header: str = ""):
+    x = np.arange(len(z)) * 0.01 if x is None else x
+    path.write_text(header + "".join(f"{a:.9g} {b:.9g}\n" for a, b in zip(x, z)))
+    return path
+
+
+@pytest.fixture(scope="module")
+def heights():
+    rng = np.random.default_rng(3)
+    x = np.arange(1024) * 0.01
+    return 2.0 * np.sin(2 * np.pi * x / 0.5) + rng.normal(0, 0.5, len(x))  # nm
+
+
+def test_profile_in_mm_read_as_nm_is_refused_with_the_likely_unit(tmp_path, heights):
+    p = _profile(tmp_path / "prof.txt", heights * 1e-6)  # the same surface written in mm
+    err = refused(cli("psd", p), "implausible", "assumed", "--height-unit mm")
+    assert "warning" in err and "does not say its units" in err
+    r = cli("psd", p, "--height-unit", "mm", "--json")
+    assert r.returncode == 0, r.stderr
+    rms = json.loads(r.stdout)["rms_nm"]
+    assert 1.0 < rms < 3.0
+    assert "height unit" not in r.stderr  # stated, not assumed: no warning for it
+
+
+def test_assumed_units_are_warned_about(tmp_path, heights):
+    r = cli("psd", _profile(tmp_path / "prof.txt", heights), "--json")
+    assert r.returncode == 0, r.stderr
+    assert "polishpath: warning:" in r.stderr and "lateral unit mm" in r.stderr and "height unit nm" in r.stderr
+    assert "--height-unit" in r.stderr and "--lateral-unit" in r.stderr
+    assert json.loads(r.stdout)["measurement_params"]["units_assumed"]
+    r = cli("psd", _profile(tmp_path / "p2.txt", heights, header="# lateral_unit: mm\n# height_unit: nm\n"))
+    assert r.returncode == 0 and "warning" not in r.stderr, r.stderr
+
+
+def test_stated_but_implausible_units_warn(tmp_path, heights):
+    p = _profile(tmp_path / "prof.txt", heights * 1e-6, header="# lateral_unit: mm\n# height_unit: nm\n")
+    r = cli("psd", p)
+    assert r.returncode == 0, r.stderr
+    assert "implausible" in r.stderr and "--height-unit mm" in r.stderr
+
+
+def test_unknown_unit_option_refused(tmp_path, heights):
+    refused(cli("psd", _profile(tmp_path / "prof.txt", heights), "--height-unit", "furlong"), "'furlong'", "height")
+
+
+def test_non_uniform_x_resampling_is_said(tmp_path, heights):
+    x = np.arange(len(heights)) * 0.01
+    x[1::2] += 0.003
+    r = cli("psd", _profile(tmp_path / "prof.txt", heights, x=x, header="# lateral_unit: mm\n# height_unit: nm\n"))
+    assert r.returncode == 0, r.stderr
+    assert "warning" in r.stderr and "resampled" in r.stderr and "not uniformly spaced" in r.stderr
+    assert "resampled" in r.stdout
+
+
+def test_map_against_profile_refused_unless_mixed(tmp_path, heights):
+    rng = np.random.default_rng(1)
+    g = rng.normal(0, 2.0, (64, 64))
+    m = tmp_path / "map.txt"
+    m.write_text("# dx: 0.01 mm\n# height_unit: nm\n" + "".join(" ".join(f"{v:.6g}" for v in row) + "\n" for row in g))
+    p = _profile(tmp_path / "prof.txt", heights, header="# lateral_unit: mm\n# height_unit: nm\n")
+    refused(cli("psd", m, p), "map", "profile", "--mixed")
+    r = cli("psd", m, p, "--mixed")
+    assert r.returncode == 0, r.stderr
+    assert "suppression ratio" in r.stdout and "--mixed" in r.stdout
+
+
+def test_nan_hint_names_the_option(tmp_path, heights):
+    z = heights.copy()
+    z[10] = np.nan
+    p = _profile(tmp_path / "prof.txt", z, header="# lateral_unit: mm\n# height_unit: nm\n")
+    err = refused(cli("psd", p, "--nan", "raise"), "NaN", "--nan interpolate")
+    assert "nan='" not in err.split("(")[0]
+    assert cli("psd", p, "--nan", "interpolate").returncode == 0

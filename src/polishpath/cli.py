@@ -603,6 +603,10 @@ def psd_cmd(
     band: str = typer.Option("1,100", "--band", help="Band 'lo,hi' in 1/mm (default 1,100 = 1e3-1e5 1/m)."),
     spacing: Optional[float] = typer.Option(None, "--spacing", help="Path spacing, mm: name peaks at 1/spacing and harmonics."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Write a log-log PSD plot (PNG)."),
+    lateral_unit: Optional[str] = typer.Option(None, "--lateral-unit", help="Unit of x / y in the files: m, mm, um, nm (default: what the file says, else mm with a warning)."),
+    height_unit: Optional[str] = typer.Option(None, "--height-unit", help="Unit of the heights in the files: m, mm, um, nm (default: what the file says, else nm with a warning)."),
+    nan: Optional[str] = typer.Option(None, "--nan", help="Missing samples: interpolate, drop (profiles of a map) or raise (default: drop complete rows of a map, else interpolate)."),
+    mixed: bool = typer.Option(False, "--mixed", help="Allow comparing a map with a profile (row-profile PSDs)."),
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ):
     """PSD and band RMS of a measured surface or profile; with AFTER, the suppression ratio.
@@ -615,11 +619,12 @@ def psd_cmd(
         from .config import parse_pair
 
         lo, hi = parse_pair(band, "--band", "'lo,hi' in 1/mm")
+        kw = {"spacing_mm": spacing, "lateral_unit": lateral_unit, "height_unit": height_unit, "nan": nan}
         if after is None:
-            res = analyze_file(file, (lo, hi), spacing_mm=spacing)
+            res = analyze_file(file, (lo, hi), **kw)
             psds = {file.name: res["psd"]}
         else:
-            res = compare_files(file, after, (lo, hi), spacing_mm=spacing)
+            res = compare_files(file, after, (lo, hi), allow_mixed=mixed, **kw)
             psds = {f"before ({file.name})": res["before"]["psd"], f"after ({after.name})": res["after"]["psd"]}
         if plot is not None:
             from .simulate import plot_psds
@@ -689,6 +694,11 @@ def _psd_json(res: dict) -> dict:
 def _print_psd(res: dict, file: Path, after: Optional[Path], lo: float, hi: float) -> None:
     def one(r, label):
         typer.echo(f"{label}: {r['kind']} {tuple(r['shape'])} at {r['dx_mm'] * 1000:.4g} um, {r['n_nan']} missing pixels")
+        mp = r.get("measurement_params", {})
+        if mp.get("units_assumed"):
+            typer.echo(f"  units assumed: {', '.join(mp['units_assumed'])}")
+        if mp.get("resampled"):
+            typer.echo(f"  {mp['resampled']}")
         typer.echo(f"  RMS {r['rms_nm']:.4g} nm; band {lo:g}-{hi:g} 1/mm: RMS {r['band_rms_nm']:.4g} nm, "
                    f"average PSD {r['band_average']:.4g} {r['units']}")
         for pk in r.get("peaks", [])[:8]:
@@ -699,6 +709,8 @@ def _print_psd(res: dict, file: Path, after: Optional[Path], lo: float, hi: floa
     else:
         one(res["before"], f"before {file}")
         one(res["after"], f"after  {after}")
+        if res.get("mixed"):
+            typer.echo("  (a map compared with a profile: row-profile PSDs, --mixed)")
         sr = res.get("suppression_ratio")
         if sr is not None:
             typer.echo(f"suppression ratio (1 - after/before, band-average PSD): {sr * 100:.2f} %")

@@ -6,8 +6,13 @@ from typing import Any
 
 import numpy as np
 
+from .. import progress
+from ..errors import MeasurementFileError, MeasurementUnitsError
 from .core import PAPER_BAND_PER_MM, PSD, band_average, band_coverage, band_rms, find_peaks, psd_1d, radial_psd, suppression_ratio
-from .io import Measurement, read_measurement
+from .io import _TO_NM, Measurement, _unit_factor, read_measurement
+
+#: RMS heights outside this range (nm) are not a polished or ground surface read in the right units
+PLAUSIBLE_RMS_NM = (1e-3, 1e6)
 
 
 def measurement_psd(m: Measurement, *, window: str = "hann", detrend="tilt", nan: str | None = None) -> PSD:
@@ -36,8 +41,47 @@ def measurement_psd(m: Measurement, *, window: str = "hann", detrend="tilt", nan
     return psd_1d(m.z_nm, m.dx_mm, window=window, detrend=detrend, nan=nan)
 
 
+def check_plausible_rms(rms_nm: float, m: Measurement) -> None:
+    """Refuse (units assumed) or warn (units stated) when the RMS height is implausible, naming the likely units.
+
+    Parameters
+    ----------
+    rms_nm : float
+        RMS height of the measurement as read, nm.
+    m : Measurement
+        The measurement (its params say the height unit used and whether it was assumed).
+
+    Raises
+    ------
+    MeasurementUnitsError
+        When the height unit was assumed and the RMS lies outside :data:`PLAUSIBLE_RMS_NM`.
+    """
+    lo, hi = PLAUSIBLE_RMS_NM
+    if not (np.isfinite(rms_nm) and rms_nm > 0) or lo <= rms_nm <= hi:
+        return
+    used = m.params.get("height_unit") or m.params.get("z_unit_in_file") or "nm"
+    try:
+        k_used = _unit_factor(str(used), _TO_NM, "height")
+    except MeasurementFileError:
+        k_used = 1.0
+    cands = {u: rms_nm / k_used * _TO_NM[u] for u in ("m", "mm", "um", "nm")}
+    good = {u: r for u, r in cands.items() if lo <= r <= hi}
+    name = m.source.rsplit("/", 1)[-1] or "the measurement"
+    msg = (f"{name}: RMS height {rms_nm:.3g} nm is implausible for a measured surface (expected {lo:g} to {hi:g} nm) "
+           f"with heights read in {used}.")
+    if good:
+        u = min(good, key=lambda k: abs(np.log10(good[k]) - 1.0))  # nearest to ~10 nm
+        hint = f"The heights are probably in {u}: pass --height-unit {u} (RMS {good[u]:.3g} nm)."
+    else:
+        hint = "Check the file's height unit (--height-unit m, mm, um or nm) and its content."
+    assumed = any("height" in a for a in m.params.get("units_assumed") or [])
+    if assumed:
+        raise MeasurementUnitsError(msg, hint)
+    progress.warn(f"{msg} {hint}")
+
+
 def analyze_file(file, band: tuple[float, float] = PAPER_BAND_PER_MM, *, spacing_mm: float | None = None,
-                 window: str = "hann", detrend="tilt", **read_kwargs) -> dict[str, Any]:
+                 window: str = "hann", detrend="tilt", nan: str | None = None, **read_kwargs) -> dict[str, Any]:
     """PSD, band RMS, band-average PSD and peaks of a measured profile or map.
 
     Parameters
@@ -50,8 +94,15 @@ def analyze_file(file, band: tuple[float, float] = PAPER_BAND_PER_MM, *, spacing
         Path spacing, mm, to name peaks at 1/spacing and harmonics.
     window, detrend :
         PSD options.
+    nan : {"drop", "interpolate", "raise"}, optional
+        Missing samples (see :func:`measurement_psd`).
     **read_kwargs :
-        Passed to :func:`read_measurement` (units, dx_mm ...).
+        Passed to :func:`read_measurement` (``lateral_unit``, ``height_unit``, ``dx_mm`` ...).
+
+    Raises
+    ------
+    MeasurementUnitsError
+        The height unit was assumed and the RMS is implausible (see :func:`check_plausible_rms`).
 
     Returns
     -------
@@ -63,7 +114,8 @@ def analyze_file(file, band: tuple[float, float] = PAPER_BAND_PER_MM, *, spacing
         (maps only) and ``measurement_params``.
     """
     m = read_measurement(file, **read_kwargs)
-    p = measurement_psd(m, window=window, detrend=detrend)
+    p = measurement_psd(m, window=window, detrend=detrend, nan=nan)
+    check_plausible_rms(float(np.sqrt(p.params["variance_nm2"])), m)
     out: dict[str, Any] = {
         "file": str(file), "kind": m.kind, "shape": list(np.shape(m.z_nm)), "dx_mm": m.dx_mm, "n_nan": m.n_nan,
         "band_per_mm": list(band), "band_covered_per_mm": list(band_coverage(p, *band)),
@@ -76,7 +128,8 @@ def analyze_file(file, band: tuple[float, float] = PAPER_BAND_PER_MM, *, spacing
     return out
 
 
-def compare_files(before, after, band: tuple[float, float] = PAPER_BAND_PER_MM, **kwargs) -> dict[str, Any]:
+def compare_files(before, after, band: tuple[float, float] = PAPER_BAND_PER_MM, *, allow_mixed: bool = False,
+                  **kwargs) -> dict[str, Any]:
     """Suppression ratio between two measurements (before / after polishing).
 
     Parameters
@@ -85,6 +138,10 @@ def compare_files(before, after, band: tuple[float, float] = PAPER_BAND_PER_MM, 
         Measurement files (same kind of measurement is advisable).
     band : (float, float)
         Band in 1/mm.
+    allow_mixed : bool
+        Compare a map with a profile (the map's row-profile PSD against the
+        profile's); refused by default, since the two instruments see
+        different bandwidths and directions.
     **kwargs :
         Passed to :func:`analyze_file`.
 
@@ -97,6 +154,13 @@ def compare_files(before, after, band: tuple[float, float] = PAPER_BAND_PER_MM, 
     """
     a = analyze_file(before, band, **kwargs)
     b = analyze_file(after, band, **kwargs)
+    if a["kind"] != b["kind"] and not allow_mixed:
+        raise MeasurementFileError(
+            f"{a['file']} is a {a['kind']} and {b['file']} a {b['kind']}: their PSDs come from different "
+            "instruments, bandwidths and directions, so the suppression ratio would compare unlike things.",
+            "Measure before and after the same way, or pass --mixed to compare the map's row-profile PSD "
+            "with the profile's anyway (allow_mixed=True in Python).")
     return {"before": a, "after": b, "band_per_mm": list(band),
             "suppression_ratio": suppression_ratio(a["psd"], b["psd"], band),
-            "band_rms_ratio": b["band_rms_nm"] / a["band_rms_nm"] if a["band_rms_nm"] > 0 else float("nan")}
+            "band_rms_ratio": b["band_rms_nm"] / a["band_rms_nm"] if a["band_rms_nm"] > 0 else float("nan"),
+            "mixed": a["kind"] != b["kind"]}

@@ -295,7 +295,8 @@ def psd_1d(z_nm, dx_mm: float, *, window: str = "hann", detrend="tilt", nan: str
     if bad_rows.any():
         if nan == "raise":
             raise ParameterError(f"{int((~np.isfinite(z)).sum())} samples are NaN or infinite.",
-                                 "Pass nan='drop' to skip those profiles or nan='interpolate' to fill them.")
+                                 "Skip those profiles with --nan drop or fill them with --nan interpolate "
+                                 "(nan='drop' / nan='interpolate' in Python).")
         if nan == "drop":
             n_dropped = int(bad_rows.sum())
             z = z[~bad_rows]
@@ -306,7 +307,7 @@ def psd_1d(z_nm, dx_mm: float, *, window: str = "hann", detrend="tilt", nan: str
             z = z[~still]
     if z.shape[0] == 0:
         raise ParameterError("no profile without missing samples is left.",
-                             "Use nan='interpolate' or crop the data to its valid part.")
+                             "Use --nan interpolate (nan='interpolate' in Python) or crop the data to its valid part.")
     x = np.arange(n) * dx_mm
     zd = detrend_profiles(z, x, detrend)
     zd = zd - zd.mean(axis=1, keepdims=True)
@@ -347,10 +348,10 @@ def _prepare_map(map_nm, dx_mm, dy_mm, nan, max_nan_fraction):
     if n_bad:
         if nan == "raise":
             raise ParameterError(f"{n_bad} pixels ({100 * frac:.2f} %) are NaN.",
-                                 "Pass nan='interpolate' to fill them, or crop the map.")
+                                 "Fill them with --nan interpolate (nan='interpolate' in Python), or crop the map.")
         if nan == "drop":
-            raise ParameterError("nan='drop' applies to profiles (psd_1d), not to a 2D map.",
-                                 "Use nan='interpolate' or crop the map.")
+            raise ParameterError("--nan drop applies to profiles, not to a 2D map's radial PSD.",
+                                 "Use --nan interpolate (nan='interpolate' in Python) or crop the map.")
         if frac > max_nan_fraction:
             raise ParameterError(
                 f"{100 * frac:.1f} % of the pixels are NaN, more than max_nan_fraction={max_nan_fraction}.",

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import progress
 from ..errors import MeasurementFileError, require
 
 _TO_MM = {"m": 1e3, "mm": 1.0, "um": 1e-3, "µm": 1e-3, "micron": 1e-3, "nm": 1e-6}
@@ -114,11 +115,28 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
     path = Path(file)
     if not path.exists():
         raise MeasurementFileError(f"measurement file {str(path)!r} does not exist.", "Check the path.")
+    for what, unit, table in (("lateral", lateral_unit, _TO_MM), ("height", height_unit, _TO_NM)):
+        if unit is not None:
+            _unit_factor(unit, table, what)  # an unknown unit is refused before reading
     if path.suffix.lower() == ".datx":
-        return _read_datx(path, dx_mm=dx_mm)
-    text = path.read_text(encoding="utf-8", errors="replace")
-    return _read_text(text, str(path), csv_like=path.suffix.lower() == ".csv", lateral_unit=lateral_unit,
-                      height_unit=height_unit, dx_mm=dx_mm, dy_mm=dy_mm)
+        m = _read_datx(path, dx_mm=dx_mm, lateral_unit=lateral_unit, height_unit=height_unit)
+    else:
+        text = path.read_text(encoding="utf-8", errors="replace")
+        m = _read_text(text, str(path), csv_like=path.suffix.lower() == ".csv", lateral_unit=lateral_unit,
+                       height_unit=height_unit, dx_mm=dx_mm, dy_mm=dy_mm)
+    _say_what_was_assumed(m, path)
+    return m
+
+
+def _say_what_was_assumed(m: Measurement, path: Path) -> None:
+    """Warn on stderr for every unit taken as a default and for any resampling (never silently)."""
+    assumed = m.params.get("units_assumed") or []
+    if assumed:
+        opts = " / ".join(("--lateral-unit" if "lateral" in a else "--height-unit") for a in assumed)
+        progress.warn(f"{path.name} does not say its units: assumed {' and '.join(assumed)}. "
+                      f"If that is wrong, pass {opts} (m, mm, um, nm).")
+    if m.params.get("resampled"):
+        progress.warn(f"{path.name}: {m.params['resampled']}.")
 
 
 def _parse_rows(text: str, csv_like: bool):
@@ -196,7 +214,8 @@ def _read_text(text, source, *, csv_like, lateral_unit, height_unit, dx_mm, dy_m
         if np.max(np.abs(d - step)) > 1e-3 * step:
             xs = x[0] + step * np.arange(int(round((x[-1] - x[0]) / step)) + 1)
             z = np.interp(xs, x, z)  # NaN samples stay NaN where they touch the interpolant
-            params["resampled"] = f"non-uniform x resampled linearly to a {step:g} mm grid"
+            params["resampled"] = (f"x is not uniformly spaced (steps {d.min():.4g} to {d.max():.4g} mm): resampled "
+                                   f"linearly to a {step:.4g} mm grid of {len(xs)} points")
         params["n_nan"] = int(np.isnan(z).sum())
         return Measurement(z, step, None, "profile", source, params)
     if nc == 3:
@@ -252,7 +271,8 @@ def _attr_scalar(v):
     return v
 
 
-def _read_datx(path: Path, dx_mm: float | None) -> Measurement:
+def _read_datx(path: Path, dx_mm: float | None, lateral_unit: str | None = None,
+               height_unit: str | None = None) -> Measurement:
     """Zygo Mx ``.datx``: HDF5 with the height map in ``/Data/Surface/<name>``.
 
     Layout (as documented by open readers such as prysm and Gwyddion): the
@@ -264,7 +284,7 @@ def _read_datx(path: Path, dx_mm: float | None) -> Measurement:
     also be in ``/Attributes/<group>`` as ``...Resolution:Value`` / ``:Unit``.
     """
     h5py = require("h5py", "reading Zygo .datx", extra="zygo")
-    params: dict[str, Any] = {"format": "datx"}
+    params: dict[str, Any] = {"format": "datx", "units_assumed": []}
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
@@ -281,7 +301,13 @@ def _read_datx(path: Path, dx_mm: float | None) -> Measurement:
         if no_data is not None:
             z[z >= float(no_data)] = np.nan
         z[~np.isfinite(z)] = np.nan
-        unit = str(_attr_scalar(attrs["Unit"])) if "Unit" in attrs else "NanoMeters"
+        if height_unit is not None:
+            unit = height_unit
+        elif "Unit" in attrs:
+            unit = str(_attr_scalar(attrs["Unit"]))
+        else:
+            unit = "nm"
+            params["units_assumed"].append("height unit nm")
         params["z_unit_in_file"] = unit
         if unit.lower() == "fringes":
             wl_m = float(_attr_scalar(attrs["Wavelength"]))
@@ -299,7 +325,7 @@ def _read_datx(path: Path, dx_mm: float | None) -> Measurement:
                 base = base.decode() if isinstance(base, bytes) else str(base)
                 par = np.asarray(conv["Parameters"]).ravel()
                 if len(par) > 1 and par[1] > 0:
-                    dx = float(par[1]) * _unit_factor(base, _TO_MM, "lateral")
+                    dx = float(par[1]) * _unit_factor(lateral_unit or base, _TO_MM, "lateral")
                     src = "X Converter"
             except (KeyError, ValueError, IndexError, MeasurementFileError):
                 dx = None
