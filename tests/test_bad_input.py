@@ -379,3 +379,14 @@ def test_nan_hint_names_the_option(tmp_path, heights):
     err = refused(cli("psd", p, "--nan", "raise"), "NaN", "--nan interpolate")
     assert "nan='" not in err.split("(")[0]
     assert cli("psd", p, "--nan", "interpolate").returncode == 0
+
+
+def test_mesh_file_too_large_for_memory_refused_from_its_header(tmp_path):
+    # a binary STL header declaring 50 million triangles with the bytes to match (a sparse file: no disk used)
+    p = tmp_path / "huge.stl"
+    n = 50_000_000
+    with p.open("wb") as fh:
+        fh.write(b"\0" * 80 + struct.pack("<I", n))
+        fh.truncate(84 + 50 * n)
+    r = cli("info", p, memory=3 * GB, timeout=60)
+    refused(r, "huge.stl", "50,000,000 faces", "memory", "Decimate")

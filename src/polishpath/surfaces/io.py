@@ -82,6 +82,12 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if p.stat().st_size == 0:
         raise MeshFileError(f"mesh file {p.name} is empty.", "Export the mesh again.")
     declared = check_before_reading(p, ext)
+    if declared.get("faces"):
+        from .. import resources
+
+        nf = int(declared["faces"])
+        resources.check(resources.estimate(nf), f"{p.name} ({nf:,} faces)",
+                        "Decimate the mesh (e.g. MeshLab: Quadric Edge Collapse Decimation) or cut out the part to polish.")
     kwargs = {"maintain_order": True} if ext == "obj" else {}
     try:
         mesh = trimesh.load(str(p), file_type=ext, process=False, force="mesh", **kwargs)
