@@ -19,13 +19,14 @@ import os
 import shutil
 import signal
 import tempfile
+import tomllib
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
-from .errors import ExportError, OutputLocationError
+from .errors import ExportError, InputError, OutputLocationError
 
 #: folders this process renamed into place (:func:`staged_folder`), resolved: the CLI's
 #: interrupt message tells an interrupt after the commit from one before it
@@ -276,3 +277,27 @@ def jsonable(o: Any) -> Any:
     if hasattr(o, "to_dict"):
         return jsonable(o.to_dict())
     return None if callable(o) else str(o)
+
+
+def read_toml(path: str | Path, what: str = "job file", error: type[InputError] = InputError) -> dict[str, Any]:
+    """Read a TOML file (a job, a machine profile, a surface spec), its problems raised as ``error``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What the file is, for the message ("job file", "spec file", ...).
+    error : InputError subclass
+        The error raised for a missing, unreadable or invalid file.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise error(f"{what} {str(p)!r} does not exist.", "Check the path.")
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{p.name} is not valid TOML: {exc}.", "Fix the line it names.") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"{p} cannot be read ({exc}).", "Check the file.") from None

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -35,7 +34,7 @@ import numpy as np
 
 from ._version import __version__
 from .errors import InputError
-from .fileio import atomic_open, jsonable
+from .fileio import atomic_open, jsonable, read_toml  # read_toml: job.toml, job configs (re-exported)
 from .types import Flattening, NurbsCurve, PlanarPath, Provenance, Region, Surface, SurfacePath, ToolPath
 
 #: version of the run-folder format written by this polishpath
@@ -180,20 +179,6 @@ def job_toml(config: dict[str, Any]) -> str:
         doc["error_map"] = em
     head = f"# polishpath {__version__} job: re-run exactly with `polishpath plan --config job.toml`\n"
     return head + tomli_w.dumps(doc)
-
-
-def read_toml(path: str | Path, what: str = "job file") -> dict[str, Any]:
-    """Read a TOML file (a ``job.toml`` or a job config), turning its problems into :class:`InputError`."""
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{what} {str(p)!r} does not exist.", "Check the path.")
-    try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{p.name} is not valid TOML: {exc}.", "Fix the line it names.") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{p} cannot be read ({exc}).", "Check the file.") from None
 
 
 @dataclass(frozen=True)

@@ -32,12 +32,12 @@ A SURFACE argument is one of
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .. import fileio
 from ..errors import ParameterError, SpecError
 from .aperture import APERTURE_TYPES, Aperture
 from .sag import BSplineSurface, EvenAsphere, XYPolynomial, ZernikeSag
@@ -86,15 +86,8 @@ def _number(v: str):
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file, turning syntax errors into :class:`SpecError`."""
-    p = Path(path)
-    if not p.exists():
-        raise SpecError(f"spec file {str(p)!r} does not exist.", "Check the path.")
-    try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{p.name} is not valid TOML: {exc}.", "Fix the line it names.") from None
+    """Read a surface spec TOML file, its problems raised as :class:`SpecError`."""
+    return fileio.read_toml(path, "spec file", SpecError)
 
 
 def aperture_from_dict(d: dict[str, Any]) -> Aperture:
