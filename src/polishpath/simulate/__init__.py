@@ -16,6 +16,16 @@ from .compare import (
     plot_psds,
     profile_psd,
 )
+from .fair import (
+    FairMetrics,
+    band_rms_nm,
+    detrend_residual,
+    fair_metrics,
+    lattice_frequencies,
+    lattice_peak_db,
+    pvn,
+    ripple_amplitude,
+)
 from .motion import TIME_MODELS, dwell_from_feed, path_clock, path_motion_samples, path_time_samples
 from .removal import (
     ProcessNoise,
@@ -42,4 +52,6 @@ __all__ = [
     "tilted_tool_tif", "workpiece_from_measurement", "RotatingBasis", "RotatingToolTIF", "rotating_tool_tif",
     "path_clock", "path_motion_samples", "TIME_MODELS", "PLANES", "TIMINGS", "TimedPath", "choose_plane",
     "simulate_job", "simulate_path", "timed_path", "format_job_table", "write_job_outputs",
+    "FairMetrics", "band_rms_nm", "detrend_residual", "fair_metrics", "lattice_frequencies", "lattice_peak_db",
+    "pvn", "ripple_amplitude",
 ]
