@@ -185,9 +185,10 @@ def detrend_profiles(z: np.ndarray, x: np.ndarray, detrend="tilt") -> np.ndarray
     if order < 0:
         return z.copy()
     t = (x - x.mean()) / max(np.ptp(x), 1e-300)
-    V = np.vander(t, order + 1)
-    coef, *_ = np.linalg.lstsq(V, z.T, rcond=None)
-    return z - (V @ coef).T
+    # least squares by projection on an orthonormal basis of the polynomials (the same fit as lstsq,
+    # two matrix products instead of a factorisation per call on thousands of profiles)
+    Q, _ = np.linalg.qr(np.vander(t, order + 1))
+    return z - (z @ Q) @ Q.T
 
 
 def detrend_map(z: np.ndarray, dx_mm: float, dy_mm: float, detrend="tilt") -> np.ndarray:

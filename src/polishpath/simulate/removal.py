@@ -187,13 +187,16 @@ def rasterize_time(xy: np.ndarray, t: np.ndarray, shape: tuple[int, int], origin
     j0 = np.floor(gy).astype(np.int64)
     fx = gx - i0
     fy = gy - j0
-    acc = np.zeros(ny * nx)
+    idx, wts = [], []
     lost = 0.0
     for di, dj, w in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
         ii, jj = i0 + di, j0 + dj
         ok = (ii >= 0) & (ii < nx) & (jj >= 0) & (jj < ny)
-        acc += np.bincount(jj[ok] * nx + ii[ok], weights=(t * w)[ok], minlength=ny * nx)
+        idx.append(jj[ok] * nx + ii[ok])
+        wts.append((t * w)[ok])
         lost += float(np.sum((t * w)[~ok]))
+    # one bincount over the four corners (one grid-sized sum instead of four)
+    acc = np.bincount(np.concatenate(idx), weights=np.concatenate(wts), minlength=ny * nx)
     return acc.reshape(ny, nx) / (dx_mm * dx_mm), lost
 
 
@@ -221,6 +224,42 @@ def _convolve_sum(densities: list[np.ndarray], kernels: list[np.ndarray]) -> np.
     return full[h:h + ny, h:h + nx]
 
 
+#: the spectrum of the last few read-only height maps smoothed (a comparison smooths one start per path)
+_SPECTRUM_CACHE: list = []
+_SPECTRUM_CACHE_SIZE = 2
+
+
+def _smoothing_spectrum(height_nm: np.ndarray, dx_mm: float, length_mm: float):
+    """``(Z, H, (py, px))``: rfft2 of the reflect-padded map and ``H(f) = 1 - exp(-(f length)^2)`` on its grid.
+
+    Cached for read-only maps (a :class:`Workpiece`'s), which cannot change under the cache.
+    """
+    import scipy.fft as sfft
+    import weakref
+
+    cacheable = isinstance(height_nm, np.ndarray) and not height_nm.flags.writeable
+    key = (height_nm.shape, float(dx_mm), float(length_mm))
+    if cacheable:
+        for ref, k, val in _SPECTRUM_CACHE:
+            if ref() is height_nm and k == key:
+                return val
+    ny, nx = height_nm.shape
+    # pad by reflection to a fast FFT size (a patch of 4001 px is prime-sized)
+    py = sfft.next_fast_len(ny, real=True)
+    px = sfft.next_fast_len(nx, real=True)
+    z = np.pad(np.asarray(height_nm, dtype=np.float32), ((0, py - ny), (0, px - nx)), mode="reflect")
+    fx = sfft.rfftfreq(px, d=dx_mm).astype(np.float32)
+    fy = sfft.fftfreq(py, d=dx_mm).astype(np.float32)
+    f2 = fx[None, :] ** 2 + fy[:, None] ** 2
+    H = -np.expm1(-f2 * np.float32(length_mm**2))
+    del f2
+    val = (sfft.rfft2(z, workers=2), H, (py, px))
+    if cacheable:
+        _SPECTRUM_CACHE.append((weakref.ref(height_nm), key, val))
+        del _SPECTRUM_CACHE[:-_SPECTRUM_CACHE_SIZE]
+    return val
+
+
 def smooth_surface(height_nm: np.ndarray, dx_mm: float, mean_depth_nm: float, smoothing: Smoothing) -> np.ndarray:
     """Apply the linearised smoothing of :class:`Smoothing` for a removed depth (nm).
 
@@ -240,22 +279,87 @@ def smooth_surface(height_nm: np.ndarray, dx_mm: float, mean_depth_nm: float, sm
     """
     import scipy.fft as sfft
 
-    ny, nx = height_nm.shape
-    # pad by reflection to a fast FFT size (a patch of 4001 px is prime-sized)
-    py = sfft.next_fast_len(ny, real=True)
-    px = sfft.next_fast_len(nx, real=True)
-    z = np.pad(np.asarray(height_nm, dtype=np.float32), ((0, py - ny), (0, px - nx)), mode="reflect")
-    fx = sfft.rfftfreq(px, d=dx_mm)
-    fy = sfft.fftfreq(py, d=dx_mm)
-    f2 = fx[None, :] ** 2 + fy[:, None] ** 2
-    H = 1.0 - np.exp(-f2 * smoothing.length_mm**2)
-    gain = np.exp(-(mean_depth_nm / smoothing.depth_nm) * H).astype(np.float32)
-    Z = sfft.rfft2(z, workers=-1)
-    return sfft.irfft2(Z * gain, s=(py, px), workers=-1)[:ny, :nx].astype(np.float32)
+    ny, nx = np.shape(height_nm)
+    Z, H, (py, px) = _smoothing_spectrum(height_nm, dx_mm, smoothing.length_mm)
+    gain = H * np.float32(-(mean_depth_nm / smoothing.depth_nm))
+    np.exp(gain, out=gain)
+    return sfft.irfft2(Z * gain, s=(py, px), workers=2)[:ny, :nx].astype(np.float32)
+
+
+def _splat_matrix(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float):
+    """The bilinear splat of :func:`rasterize_time` as a sparse (Ny * Nx, M) matrix: ``S @ t`` = time per pixel, s.
+
+    Built once per path, it splats the many weighted time vectors of a rotating tool's kernel terms in one
+    sparse product each (corners off the grid are dropped, as :func:`rasterize_time` does).
+    """
+    from scipy.sparse import csr_matrix
+
+    ny, nx = shape
+    gx = (xy[:, 0] - origin_mm[0]) / dx_mm
+    gy = (xy[:, 1] - origin_mm[1]) / dx_mm
+    i0 = np.floor(gx).astype(np.int64)
+    j0 = np.floor(gy).astype(np.int64)
+    fx = gx - i0
+    fy = gy - j0
+    rows, cols, vals = [], [], []
+    m = np.arange(len(xy))
+    for di, dj, w in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
+        ii, jj = i0 + di, j0 + dj
+        ok = (ii >= 0) & (ii < nx) & (jj >= 0) & (jj < ny)
+        rows.append(jj[ok] * nx + ii[ok])
+        cols.append(m[ok])
+        vals.append(w[ok])
+    return csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(ny * nx, len(xy)))
+
+
+class _PaddedRfft2:
+    """``rfft2(a, s=(sy, sx))`` of arrays of at most (ny, nx) in two passes, in reused zero-padded buffers.
+
+    The padding rows are not transformed along x, and no padded copy is allocated per call.
+    """
+
+    def __init__(self, ny: int, nx: int, sy: int, sx: int):
+        self.ny, self.nx, self.sy, self.sx = ny, nx, sy, sx
+        self.real = np.zeros((ny, sx), dtype=np.float32)
+        self.spec = np.zeros((sy, sx // 2 + 1), dtype=np.complex64)
+
+    def __call__(self, a: np.ndarray) -> np.ndarray:
+        import scipy.fft as sfft
+
+        n, m = a.shape
+        self.real[:n, :m] = a
+        self.real[:n, m:] = 0.0
+        self.spec[:n] = sfft.rfft(self.real[:n], axis=1, workers=2)
+        self.spec[n:] = 0.0
+        return sfft.fft(self.spec, axis=0, workers=2)
+
+
+def _upsample_crop(acc: np.ndarray, sy: int, sx: int, q: int, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+    """Rows r0:r1, columns c0:c1 of ``irfft2`` of the half spectrum ``acc`` (sy, sx//2+1) zero-padded to (q sy, q sx).
+
+    The same numbers as building the zero-padded (q sy, q sx // 2 + 1) spectrum and inverting it in 2D, but
+    only the columns that carry the coarse spectrum are transformed along y, and only the rows kept along x
+    (the padding is zeros, so most of the 2D transform's work is skipped).
+    """
+    import scipy.fft as sfft
+
+    Sy, Sx = q * sy, q * sx
+    ncol = sx // 2 + 1 if sx % 2 else sx // 2  # drop the Nyquist column / row
+    npos = (sy + 1) // 2
+    nneg = (sy - 1) // 2
+    col = np.zeros((Sy, ncol), dtype=np.complex64)
+    col[:npos] = acc[:npos, :ncol]
+    if nneg:
+        col[Sy - nneg:] = acc[sy - nneg:, :ncol]
+    rows = sfft.ifft(col, axis=0, workers=2)[r0:r1]  # (r1 - r0, ncol): y done, rows outside the crop dropped
+    del col
+    # irfft along x zero-pads the missing columns; scale as one 2D inverse of size (Sy, Sx)
+    full = sfft.irfft(rows, n=Sx, axis=1, workers=2)[:, c0:c1]
+    return full
 
 
 def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: RotatingToolTIF,
-                      removal_dx_mm: float | None, tol: float):
+                      removal_dx_mm: float | None, tol: float, basis_times=None):
     """Removal (nm) of a :class:`RotatingToolTIF` with each sample's own feed velocity.
 
     The TIF family is expanded in fixed kernels (:meth:`RotatingToolTIF.basis`);
@@ -264,7 +368,8 @@ def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: R
     in the frequency domain and, for q > 1, brought to the fine grid by
     zero-padding the spectrum (exact for content below the coarse Nyquist
     frequency; the TIF passes nothing above it) with the bilinear splat's
-    transfer function corrected to that of the fine grid.
+    transfer function corrected to that of the fine grid. ``basis_times``
+    (default ``t``) weights the speeds the basis has to reproduce best.
     """
     import scipy.fft as sfft
 
@@ -277,39 +382,38 @@ def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: R
     on = t > 0
     sp = speed[on]
     s_lo, s_hi = (float(sp.min()), float(sp.max())) if sp.size else (0.0, 0.0)
-    basis = tif.basis(dxc, (s_lo, s_hi), tol=tol, sample_speeds=sp, sample_times=t[on])
+    bt = t if basis_times is None else basis_times
+    basis = tif.basis(dxc, (s_lo, s_hi), tol=tol, sample_speeds=sp, sample_times=bt[on])
     C = basis.coefficients(speed, heading)
     kmax = basis.kernels[0].shape[0]
     sy = sfft.next_fast_len(nyc + kmax - 1, real=True)
     sx = sfft.next_fast_len(nxc + kmax - 1, real=True)
-    acc = None
-    for j, k in enumerate(basis.kernels):
-        d, _ = rasterize_time(xy, t * C[j], (nyc, nxc), origin_mm, dxc)
-        term = (sfft.rfft2(d.astype(np.float32), s=(sy, sx), workers=-1)
-                * sfft.rfft2(k.astype(np.float32), s=(sy, sx), workers=-1))
-        acc = term if acc is None else acc + term
+    S = _splat_matrix(xy, (nyc, nxc), origin_mm, dxc)  # once for all terms
+    acc = np.zeros((sy, sx // 2 + 1), dtype=np.complex64)
+    fft_d = _PaddedRfft2(nyc, nxc, sy, sx)
+    fft_k = _PaddedRfft2(kmax, kmax, sy, sx)
+    chunk = 8  # terms splatted per sparse product (bounds the dense block to 8 coarse grids)
+    for j0 in range(0, len(basis.kernels), chunk):
+        j1 = min(len(basis.kernels), j0 + chunk)
+        D = (S @ (C[j0:j1] * t[None, :]).T).astype(np.float32)  # (nyc * nxc, j1 - j0), s per coarse pixel
+        for j in range(j0, j1):
+            term = fft_d(D[:, j - j0].reshape(nyc, nxc))
+            term *= fft_k(basis.kernels[j])
+            acc += term
+        del D
+    acc *= np.float32(1.0 / (dxc * dxc))  # time per pixel -> time density, s/mm^2
     h = kmax // 2
     if q == 1:
-        full = sfft.irfft2(acc, s=(sy, sx), workers=-1)
+        full = sfft.irfft2(acc, s=(sy, sx), workers=2)
         return (full[h:h + ny, h:h + nx] * dx * dx).astype(np.float32), basis, q
     fy = sfft.fftfreq(sy, d=dxc)
     fx = sfft.rfftfreq(sx, d=dxc)
     corr_y = (np.sinc(fy * dx) / np.sinc(fy * dxc)) ** 2
     corr_x = (np.sinc(fx * dx) / np.sinc(fx * dxc)) ** 2
     acc *= (corr_y[:, None] * corr_x[None, :]).astype(np.float32)
-    Sy, Sx = q * sy, q * sx
-    big = np.zeros((Sy, Sx // 2 + 1), dtype=np.complex64)
-    ncol = sx // 2 + 1 if sx % 2 else sx // 2  # drop the Nyquist column / row
-    npos = (sy + 1) // 2
-    nneg = (sy - 1) // 2
-    big[:npos, :ncol] = acc[:npos, :ncol]
-    if nneg:
-        big[Sy - nneg:, :ncol] = acc[sy - nneg:, :ncol]
-    del acc
-    full = sfft.irfft2(big, s=(Sy, Sx), workers=-1)
-    del big
     H = h * q
-    return (full[H:H + ny, H:H + nx] * (q * q * dxc * dxc)).astype(np.float32), basis, q
+    full = _upsample_crop(acc, sy, sx, q, H, H + ny, H, H + nx)
+    return (full * (q * q * dxc * dxc)).astype(np.float32), basis, q
 
 
 def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | DirectionalTIF | RotatingToolTIF, *,
@@ -364,6 +468,7 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
     xy, t, heading, arc, length, motion = path_motion_samples(path_xy, dwell_s, step, pieces, time_model, machine)
     with np.errstate(divide="ignore", invalid="ignore"):
         speed = np.where(t > 0, length / t, 0.0)  # mm/s, before the rate noise (it is not a speed change)
+    t_motion = t  # the time at each speed, before the rate noise: what the kernel basis must reproduce
     if noise is not None and noise.rms > 0:
         t = t * process_noise_factor(arc, noise, seed, clock_s=path_clock(arc, t))
     t1 = time.perf_counter()
@@ -381,7 +486,7 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
         expected = float(np.sum(t * vr)) * (on_grid / tt if tt > 0 else 0.0)
         t2 = time.perf_counter()
         removal, basis, q = _rotating_removal(xy, t, speed, heading, shape, workpiece.origin_mm, dx, tif,
-                                              removal_dx_mm, basis_tol)
+                                              removal_dx_mm, basis_tol, basis_times=t_motion)
         rot_info = {"n_terms": basis.params["n_terms"], "harmonics": basis.params["harmonics"],
                     "truncation_rel_error": basis.rel_error, "removal_dx_mm": q * dx,
                     "speed_range_mm_s": basis.params["speed_range_mm_s"],

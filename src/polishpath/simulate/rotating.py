@@ -27,6 +27,7 @@ Units: mm, nm, s; rpm for the spin, mm/min for feeds.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -47,6 +48,11 @@ DEFAULT_PRESSURE = "parabolic"
 DEFAULT_ROTATING_PEAK_RATE_NM_S = 100.0
 
 _PRESSURES = ("parabolic", "hertz", "uniform", "gaussian")
+
+#: bases already built, keyed by the tool, the grid, the speed table and its weights (a deterministic path
+#: polished over several seeds, or the same path under several options, needs the same basis every time)
+_BASIS_CACHE: "OrderedDict[tuple, RotatingBasis]" = OrderedDict()
+_BASIS_CACHE_SIZE = 8
 
 
 def _pressure(r: np.ndarray, R: float, kind: str) -> np.ndarray:
@@ -205,6 +211,20 @@ class RotatingToolTIF:
             ws = np.bincount(idx.astype(np.int64), weights=st, minlength=len(speeds))
             ws = ws / max(ws.sum(), 1e-300) + 1e-2 / len(speeds)  # floor: speeds between nodes stay usable
         ws = np.sqrt(ws / ws.sum())
+        key = (self.rpm, self.contact_radius_mm, self.pressure, self.peak_rate_nm_s, float(dx_mm), s_lo, s_hi,
+               float(tol), int(max_harmonic), int(n_radii), speeds.tobytes(), ws.tobytes())
+        hit = _BASIS_CACHE.get(key)
+        if hit is not None:
+            _BASIS_CACHE.move_to_end(key)
+            return hit
+        out = self._basis_for_weights(dx_mm, speeds, ws, s_lo, s_hi, tol, max_harmonic, n_radii)
+        _BASIS_CACHE[key] = out
+        while len(_BASIS_CACHE) > _BASIS_CACHE_SIZE:
+            _BASIS_CACHE.popitem(last=False)
+        return out
+
+    def _basis_for_weights(self, dx_mm, speeds, ws, s_lo, s_hi, tol, max_harmonic, n_radii) -> "RotatingBasis":
+        """:meth:`basis` for a speed table and its weights (the expensive part, cached by :meth:`basis`)."""
         r, wr = _radial_grid(self.radius_mm, n_radii)
         p = _pressure(r, self.contact_radius_mm, self.pressure)
         w = self.omega_rad_s
@@ -299,14 +319,26 @@ class RotatingBasis:
     def coefficients(self, speed_mm_s: np.ndarray, heading_rad: np.ndarray) -> np.ndarray:
         """Coefficients (n_terms, M) of the kernels for samples with speeds (M,) mm/s and headings (M,) rad."""
         s = np.clip(np.asarray(speed_mm_s, dtype=np.float64), self.speeds[0], self.speeds[-1])
+        phi = np.asarray(heading_rad, dtype=np.float64)
         out = np.empty((len(self.kernels), len(s)))
+        # cos(m phi), sin(m phi) for every harmonic by the angle-addition recurrence (no complex exp per term)
+        m_max = max((m for m, _, _ in self.coefs), default=0)
+        c1, s1 = np.cos(phi), np.sin(phi)
+        cos_m, sin_m = [np.ones_like(phi)], [np.zeros_like(phi)]
+        for _ in range(m_max):
+            cos_m.append(cos_m[-1] * c1 - sin_m[-1] * s1)
+            sin_m.append(sin_m[-1] * c1 + cos_m[-2] * s1)
+        last = None  # the "re" and "im" kernels of one term share W = v(s) e^{-i m phi}
         for j, (m, wv, part) in enumerate(self.coefs):
-            if len(self.speeds) > 1:
-                ws = np.interp(s, self.speeds, wv.real) + 1j * np.interp(s, self.speeds, wv.imag)
-            else:
-                ws = np.full(len(s), wv[0])
-            W = ws * np.exp(-1j * m * np.asarray(heading_rad, dtype=np.float64))
-            out[j] = W.real if part == "re" else W.imag
+            if last is None or last[0] is not wv:
+                if len(self.speeds) > 1:
+                    a = np.interp(s, self.speeds, wv.real)
+                    b = np.interp(s, self.speeds, wv.imag)
+                else:
+                    a, b = np.full(len(s), wv[0].real), np.full(len(s), wv[0].imag)
+                # W = (a + i b)(cos m phi - i sin m phi)
+                last = (wv, a * cos_m[m] + b * sin_m[m], b * cos_m[m] - a * sin_m[m])
+            out[j] = last[1] if part == "re" else last[2]
         return out
 
 

@@ -24,7 +24,8 @@ class Workpiece:
     Attributes
     ----------
     height_nm : (Ny, Nx) float
-        Surface error, nm (design sag removed); rows along y.
+        Surface error, nm (design sag removed); rows along y. Stored read-only (a writeable array
+        given is copied), so results derived from it (the smoothing spectrum) can be reused.
     dx_mm : float
         Pixel pitch in x and y, mm.
     origin_mm : (2,) float64
@@ -45,6 +46,10 @@ class Workpiece:
             raise ParameterError("the workpiece height map has NaN pixels.",
                                  "Fill them (e.g. psd_2d's interpolation) or crop the map before simulating.")
         object.__setattr__(self, "origin_mm", np.asarray(self.origin_mm, dtype=np.float64))
+        if h.flags.writeable:  # a private, read-only copy: the map cannot change under what is derived from it
+            h = h.copy()
+            h.setflags(write=False)
+        object.__setattr__(self, "height_nm", h)
 
     @property
     def shape(self) -> tuple[int, int]:
