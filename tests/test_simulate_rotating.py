@@ -150,3 +150,61 @@ def test_compare_patterns_default_is_the_rotating_sponge_and_removes_the_depth()
     for r in out["rows"]:
         assert r["mean_depth_nm"] == pytest.approx(200.0, rel=0.1)
         assert r["rotating"]["mean_speed_mm_s"] == pytest.approx(10.0, rel=0.1)
+
+
+def test_pruned_fft_helpers_equal_the_plain_2d_transforms():
+    import scipy.fft as sfft
+
+    from polishpath.simulate.removal import _PaddedRfft2, _upsample_crop
+
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((37, 41)).astype(np.float32)
+    f = _PaddedRfft2(40, 45, 64, 72)
+    assert np.allclose(f(a), sfft.rfft2(a, s=(64, 72)), atol=1e-4)
+    b = rng.standard_normal((20, 25)).astype(np.float32)  # a smaller array in the same buffers: no stale data
+    assert np.allclose(f(b), sfft.rfft2(b, s=(64, 72)), atol=1e-4)
+    # the zero-padded inverse, cropped, against building the padded spectrum and inverting it in 2D
+    sy, sx, q = 30, 36, 3
+    acc = sfft.rfft2(rng.standard_normal((sy, sx))).astype(np.complex64)
+    big = np.zeros((q * sy, q * sx // 2 + 1), dtype=np.complex64)
+    ncol, npos, nneg = sx // 2, (sy + 1) // 2, (sy - 1) // 2
+    big[:npos, :ncol] = acc[:npos, :ncol]
+    big[q * sy - nneg:, :ncol] = acc[sy - nneg:, :ncol]
+    ref = sfft.irfft2(big, s=(q * sy, q * sx))[5:70, 7:90]
+    assert np.allclose(_upsample_crop(acc, sy, sx, q, 5, 70, 7, 90), ref, atol=1e-6)
+
+
+def test_basis_is_reused_for_the_same_tool_grid_and_speeds_and_rebuilt_otherwise():
+    tif = rotating_tool_tif(230, 0.6, "hertz", peak_rate_nm_s=20.0)
+    sp = np.array([8.0, 10.0, 10.0, 12.0])
+    a = tif.basis(0.02, (8.0, 12.0), sample_speeds=sp, sample_times=np.ones(4))
+    assert tif.basis(0.02, (8.0, 12.0), sample_speeds=sp, sample_times=np.ones(4)) is a
+    b = tif.basis(0.02, (8.0, 12.0), sample_speeds=sp, sample_times=np.array([1.0, 1.0, 1.0, 5.0]))
+    assert b is not a
+    assert tif.scaled(2.0).basis(0.02, (8.0, 12.0), sample_speeds=sp, sample_times=np.ones(4)) is not a
+    c = tif.basis(0.01, (8.0, 12.0), sample_speeds=sp, sample_times=np.ones(4))
+    assert c.kernels[0].shape != a.kernels[0].shape
+
+
+def test_smoothing_spectrum_is_reused_only_for_the_same_read_only_map():
+    from polishpath.simulate import Smoothing, smooth_surface, synthetic_workpiece
+
+    wp = synthetic_workpiece((0, 0, 1.5, 1.5), DX, seed=1)
+    assert not wp.height_nm.flags.writeable
+    sm = Smoothing(100.0, 0.3)
+    first = smooth_surface(wp.height_nm, DX, 50.0, sm)
+    assert np.array_equal(smooth_surface(wp.height_nm, DX, 50.0, sm), first)  # from the cached spectrum
+    other = synthetic_workpiece((0, 0, 1.5, 1.5), DX, seed=2)
+    assert not np.allclose(smooth_surface(other.height_nm, DX, 50.0, sm), first)
+    # a writeable array is never cached: changing it changes the result
+    z = np.array(wp.height_nm)
+    s1 = smooth_surface(z, DX, 50.0, sm)
+    z *= 2.0
+    assert np.allclose(smooth_surface(z, DX, 50.0, sm), 2.0 * s1, rtol=1e-4, atol=1e-4)
+    # a workpiece keeps its own copy of a writeable map
+    from polishpath.simulate import Workpiece
+
+    src = np.zeros((20, 20), np.float32)
+    w = Workpiece(src, DX)
+    src[0, 0] = 5.0
+    assert w.height_nm[0, 0] == 0.0
