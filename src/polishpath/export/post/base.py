@@ -39,7 +39,8 @@ import numpy as np
 from ..._version import __version__
 from ...errors import ParameterError
 from ...types import Surface, ToolPath
-from ..files import _fmt, _rounded, _text_out, _write_rows
+from ..files import _fmt, _rounded, _text_out
+from ..textfmt import format_fixed
 from .gouge import gouge_check
 
 __all__ = ["PostSettings", "PostProcessor", "GcodePost", "Piece", "offset_along_normals", "planned_segment_times"]
@@ -322,7 +323,7 @@ class GcodePost(PostProcessor):
         """Write the piece's moves after its first point; returns (seconds, lines). Linear G01 here."""
         rows, secs = self.linear_rows(piece, feed_mode)
         d, fd = self.settings.decimals, self.settings.feed_decimals
-        _write_rows(fh, f"G01 X%.{d}f Y%.{d}f Z%.{d}f F%.{fd}f\n", rows)
+        fh.write(format_fixed(rows, [d, d, d, fd], letters="XYZF").decode().replace("\nX", "\nG01 X").join(["G01 ", ""]) if len(rows) else "")
         return secs, len(rows)
 
     def motion_bounds(self, piece: Piece, mode: str, ctx: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -1,0 +1,270 @@
+"""Numbers to text in bulk: the formatting every writer shares (compiled loops into a bytes buffer).
+
+Two kernels, each writing whole rows of numbers into a ``uint8`` buffer that the
+caller writes to the file in large chunks:
+
+* :func:`fixed_point_rows` -- fixed-point numbers (``%.{d}f`` of the value
+  rounded to ``d`` decimals, with no ``-0``), each optionally after an address
+  letter (G-code words ``X1.2345``) and present or not per row (modal G-code
+  leaves out the words that did not change). The value is printed from the
+  integer ``rint(x * 10^d)``, exactly the digits ``"%.{d}f" % (np.round(x, d) + 0.0)``
+  prints while ``|x| < 2^52 / 10^(d+1)`` (:func:`fixed_point_exact`; beyond,
+  the callers fall back to Python's ``%``).
+* :func:`csv_rows` -- ``%d`` integer and ``%.17g`` float columns, the floats
+  through the C library's ``strfromd`` (C23, glibc >= 2.25), which is correctly
+  rounded like Python's ``%`` and prints the same text (checked in
+  tests/test_export.py). Where the C library has no ``strfromd``
+  (:data:`HAVE_STRFROMD` false) the callers use Python's ``%``.
+
+Written by hand because no library formats numpy arrays to text in bulk:
+``numpy.savetxt`` and ``np.char.mod`` call Python's ``%`` once per row or value
+(8-15 MB/s here); these loops run at 50-150 MB/s (benchmarks/bench_writers.py).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+__all__ = ["fixed_point_rows", "csv_rows", "fixed_point_exact", "HAVE_STRFROMD", "FIXED_MAX_CHARS",
+           "CSV_FLOAT_MAX_CHARS"]
+
+
+def _has_strfromd() -> bool:
+    try:
+        return hasattr(ctypes.CDLL(ctypes.util.find_library("c") or None), "strfromd")
+    except OSError:  # pragma: no cover - no C library to ask
+        return False
+
+
+#: whether the C library has ``strfromd`` (the %.17g kernel needs it)
+HAVE_STRFROMD = _has_strfromd()
+#: most characters of one fixed-point number at 9 decimals (sign, 19 digits, point, 9 digits) + letter + separator
+FIXED_MAX_CHARS = 32
+#: most characters of one %.17g number ("-1.2345678901234567e-308") + separator
+CSV_FLOAT_MAX_CHARS = 26
+
+
+def fixed_point_exact(values: np.ndarray, decimals: int) -> bool:
+    """Whether :func:`fixed_point_rows` prints exactly Python's ``%.{d}f`` of ``values`` rounded (finite, not huge)."""
+    v = np.asarray(values)
+    if v.size == 0:
+        return True
+    if not np.all(np.isfinite(v)):
+        return False
+    return float(np.max(np.abs(v))) < 2.0**52 / 10.0 ** (decimals + 1)
+
+
+@numba.njit(cache=True)
+def _put_fixed(out, pos, x, scale, decimals):  # pragma: no cover - numba
+    k = np.rint(x * scale)  # np.round(x, d) is rint(x * 10^d) / 10^d: the same integer
+    if k < 0:
+        out[pos] = 45  # '-'
+        pos += 1
+        k = -k
+    n = np.int64(k)
+    ip = n // np.int64(scale)
+    fp = n - ip * np.int64(scale)
+    # integer part
+    start = pos
+    if ip == 0:
+        out[pos] = 48
+        pos += 1
+    while ip > 0:
+        out[pos] = 48 + ip % 10
+        ip //= 10
+        pos += 1
+    i, j = start, pos - 1
+    while i < j:
+        out[i], out[j] = out[j], out[i]
+        i += 1
+        j -= 1
+    if decimals > 0:
+        out[pos] = 46  # '.'
+        pos += 1
+        for q in range(decimals - 1, -1, -1):
+            out[pos + q] = 48 + fp % 10
+            fp //= 10
+        pos += decimals
+    return pos
+
+
+@numba.njit(cache=True)
+def fixed_point_rows(values, present, decimals, letters, sep, out):  # pragma: no cover - numba
+    """Rows of fixed-point numbers into ``out``; returns the bytes written.
+
+    Parameters
+    ----------
+    values : (m, k) float64
+    present : (m, k) bool
+        Which numbers each row holds (a row with none writes nothing, not even its newline).
+    decimals : (k,) int64
+        Digits after the point per column (0..9).
+    letters : (k,) uint8
+        Address letter written before each number (0: none).
+    sep : uint8
+        Byte between two numbers of a row (a space).
+    out : (>= m * (k * FIXED_MAX_CHARS + 1),) uint8
+    """
+    m, k = values.shape
+    scales = np.empty(k)
+    for c in range(k):
+        scales[c] = 10.0 ** decimals[c]
+    pos = 0
+    for r in range(m):
+        first = True
+        for c in range(k):
+            if not present[r, c]:
+                continue
+            if not first:
+                out[pos] = sep
+                pos += 1
+            first = False
+            if letters[c] != 0:
+                out[pos] = letters[c]
+                pos += 1
+            pos = _put_fixed(out, pos, values[r, c], scales[c], decimals[c])
+        if not first:
+            out[pos] = 10
+            pos += 1
+    return pos
+
+
+@intrinsic
+def _strfromd_17g(typingctx, buf, pos, value):  # pragma: no cover - compiled
+    """``strfromd(buf + pos, 32, "%.17g", value)``: the C library's correctly rounded %.17g; bytes written."""
+    sig = types.intp(buf, pos, value)
+
+    def codegen(context, builder, signature, args):
+        arr = context.make_array(signature.args[0])(context, builder, args[0])
+        i8p = ir.IntType(8).as_pointer()
+        ptr = builder.bitcast(builder.gep(arr.data, [args[1]]), i8p)
+        fnty = ir.FunctionType(ir.IntType(32), [i8p, ir.IntType(64), i8p, ir.DoubleType()])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "strfromd")
+        fmt = context.insert_const_string(builder.module, "%.17g")
+        n = builder.call(fn, [ptr, ir.Constant(ir.IntType(64), 32), fmt, args[2]])
+        return builder.sext(n, ir.IntType(64))
+
+    return sig, codegen
+
+
+@numba.njit(cache=True)
+def _put_int(out, pos, n):  # pragma: no cover - numba
+    if n < 0:
+        out[pos] = 45
+        pos += 1
+        n = -n
+    start = pos
+    if n == 0:
+        out[pos] = 48
+        pos += 1
+    while n > 0:
+        out[pos] = 48 + n % 10
+        n //= 10
+        pos += 1
+    i, j = start, pos - 1
+    while i < j:
+        out[i], out[j] = out[j], out[i]
+        i += 1
+        j -= 1
+    return pos
+
+
+@numba.njit(cache=True)
+def csv_rows(ints, floats, out):  # pragma: no cover - numba
+    """CSV rows ``%d,...,%.17g,...`` into ``out``; returns the bytes written.
+
+    ``ints`` (m, a) int64, then ``floats`` (m, b) float64 per row (NaN as ``nan``,
+    like Python); ``out`` holds at least ``m * (21 a + 26 b + 1)`` bytes.
+    """
+    m, a = ints.shape
+    b = floats.shape[1]
+    pos = 0
+    for r in range(m):
+        for c in range(a):
+            if c > 0:
+                out[pos] = 44
+                pos += 1
+            pos = _put_int(out, pos, ints[r, c])
+        for c in range(b):
+            if a + c > 0:
+                out[pos] = 44
+                pos += 1
+            x = floats[r, c]
+            if x != x:  # NaN: C may print "-nan", Python prints "nan"
+                out[pos] = 110
+                out[pos + 1] = 97
+                out[pos + 2] = 110
+                pos += 3
+            else:
+                pos += _strfromd_17g(out, pos, x)
+        out[pos] = 10
+        pos += 1
+    return pos
+
+
+# --------------------------------------------------------------------------------------
+# Python entry points: one chunk of rows -> bytes (with Python's % where the kernels cannot be exact)
+# --------------------------------------------------------------------------------------
+
+
+def _fixed_text(x: float, d: int) -> str:
+    s = f"{float(np.round(float(x), d)) + 0.0:.{d}f}"
+    return s[1:] if s.startswith("-") and float(s) == 0.0 else s
+
+
+def format_fixed(values: np.ndarray, decimals, *, letters: str | None = None, present: np.ndarray | None = None,
+                 sep: str = " ") -> bytes:
+    """Rows of fixed-point numbers as bytes, one line per row (see :func:`fixed_point_rows`).
+
+    Parameters
+    ----------
+    values : (m, k) float
+    decimals : int or (k,) int
+        Digits after the point (per column).
+    letters : str of length k, optional
+        Address letter before each column's number ("XYZF"); a space in it: none.
+    present : (m, k) bool, optional
+        Which numbers each row holds (default: all); a row with none is left out.
+    sep : str
+        One character between the numbers of a row.
+    """
+    v = np.ascontiguousarray(values, dtype=np.float64)
+    m, k = v.shape
+    dec = np.broadcast_to(np.asarray(decimals, dtype=np.int64), (k,)).copy()
+    let = np.zeros(k, np.uint8) if letters is None else np.frombuffer(letters.replace(" ", "\0").encode(), np.uint8).copy()
+    pres = np.ones((m, k), bool) if present is None else np.ascontiguousarray(present, dtype=bool)
+    if m == 0:
+        return b""
+    if all(fixed_point_exact(v[:, c], int(dec[c])) for c in range(k)):
+        out = np.empty(m * (k * FIXED_MAX_CHARS + 1), np.uint8)
+        n = fixed_point_rows(v, pres, dec, let, np.uint8(ord(sep)), out)
+        return out[:n].tobytes()
+    lines = []
+    for r in range(m):  # huge or non-finite numbers: Python's formatting, row by row
+        words = [(chr(let[c]) if let[c] else "") + _fixed_text(v[r, c], int(dec[c])) for c in range(k) if pres[r, c]]
+        if words:
+            lines.append(sep.join(words) + "\n")
+    return "".join(lines).encode("ascii")
+
+
+def format_csv(ints: np.ndarray, floats: np.ndarray) -> bytes:
+    """CSV rows of ``%d`` columns then ``%.17g`` columns, as bytes (see :func:`csv_rows`)."""
+    iv = np.ascontiguousarray(ints, dtype=np.int64)
+    fv = np.ascontiguousarray(floats, dtype=np.float64)
+    m = len(iv)
+    if m == 0:
+        return b""
+    if HAVE_STRFROMD:
+        out = np.empty(m * (21 * iv.shape[1] + CSV_FLOAT_MAX_CHARS * fv.shape[1] + 1), np.uint8)
+        n = csv_rows(iv, fv, out)
+        return out[:n].tobytes()
+    fmt = ",".join(["%d"] * iv.shape[1] + ["%.17g"] * fv.shape[1]) + "\n"
+    return ((fmt * m) % tuple(np.column_stack([iv.astype(object), fv.astype(object)]).ravel().tolist())).encode()
