@@ -18,9 +18,13 @@ from polishpath.errors import ParameterError
 from polishpath.export import POSTS, get_post, read_path_csv, read_xyz, write_gcode, write_path_csv, write_program, write_xyz
 from polishpath.export.post import PostSettings, planned_segment_times, post_help
 from polishpath.mapping import map_to_surface
-from polishpath.smooth import evaluate, sample_normals, smooth
+from polishpath.smooth import dwell_regions, evaluate, sample_normals, smooth
 from polishpath.types import NurbsCurve
+from gcode_helpers import moves_gcodeparser, moves_pygcode
 from test_mapping_helpers import serpentine_path, spherical_cap
+
+RES = 0.5e-4 + 1e-12  # half the 4-decimal coordinate resolution, mm
+FEED_RES = 1e-3  # the default feed_resolution: a block without F runs at most this far off its planned time
 
 
 @pytest.fixture(scope="module")
@@ -44,12 +48,15 @@ def _gcode(tool_path, **kw) -> str:
     return buf.getvalue()
 
 
-def _g01(text: str):
-    """(X Y Z) targets and F of every G01 block, by gcodeparser."""
-    from gcodeparser import parse_gcode_lines
-
-    rows = [ln.params for ln in parse_gcode_lines(text) if ln.command == ("G", 1)]
-    return np.array([(p["X"], p["Y"], p["Z"]) for p in rows]), np.array([p["F"] for p in rows])
+def _path_runs(text: str):
+    """Per piece, by gcodeparser: the path's points (approach end, then every path block's end) and the
+    path blocks' F, G93 flags and times as the controller derives them (approach and retract left out)."""
+    m = moves_gcodeparser(text)
+    t = m.times()
+    out = []
+    for run in m.runs():
+        out.append((m.ends[run[:-1]], m.feed[run[1:-1]], m.inverse[run[1:-1]], t[run[1:-1]]))
+    return out
 
 
 def _pieces_of(tool_path):
@@ -102,6 +109,7 @@ def test_linuxcnc_program_in_order(tool_path):
     assert text.startswith("%\n") and text.endswith("M5 M9\nM30\n%\n")
     assert f"polishpath {VERSION}" in text and "(seed: 5)" in text and "params.pattern: raster" in text
     assert "COORDINATES: TOOL-PART CONTACT POINT" in text and "FEED: G94" in text
+    assert "(segmenting: chord)" in text and "(coordinate_resolution_mm: 0.0001)" in text
     body = _lines(text)
     assert body[:5] == ["G21 G90 G17 G94", "G40 G49 G80 G54", "G64 P0.005000", "M3 S230", "M8"]
     pieces = _pieces_of(tool_path)
@@ -114,74 +122,67 @@ def test_linuxcnc_program_in_order(tool_path):
         q0 = np.array([float(v[1:]) for v in body[i + 1].split()[1:]] + [float(body[i + 2][5:])])
         p0 = tool_path.samples[a]
         assert np.abs(q0 - (p0 + 2.0 * normals[a])).max() <= 1e-4
-        assert body[i + 3].endswith("F300.000")
-        i += 4 + (b - a - 1)
+        assert body[i + 3].startswith("G01 X") and body[i + 3].endswith("F300.000")
+        # the path's blocks: modal words only (G01 is in force from the approach)
+        j = i + 4
+        while not body[j].startswith("G01"):
+            assert body[j][0] in "XYZF", body[j]
+            j += 1
+        assert j - (i + 4) < b - a - 1  # fewer blocks than samples: merged within the tolerances
         # retract along the end normal at the approach feed, back to the clearance plane
-        q1 = np.array([float(v[1:]) for v in body[i].split()[1:4]])
+        q1 = np.array([float(v[1:]) for v in body[j].split()[1:4]])
         assert np.abs(q1 - (tool_path.samples[b - 1] + 2.0 * normals[b - 1])).max() <= 1e-4
-        assert body[i].endswith("F300.000") and body[i + 1] == f"G00 Z{safe:.4f}"
+        assert body[j].endswith("F300.000") and body[j + 1] == f"G00 Z{safe:.4f}"
         assert safe >= tool_path.samples[:, 2].max() + 5.0 - 1e-9
-        i += 2
+        i = j + 2
     assert body[i:] == ["M5 M9", "M30"]
 
-
-def test_linuxcnc_moves_are_the_samples_with_their_planned_times(tool_path):
-    text = _gcode(tool_path)
-    pts, feed = _g01(text)
+def test_fixed_period_moves_are_the_samples_with_their_planned_times(tool_path):
+    text = _gcode(tool_path, segmenting="period")
     dt = planned_segment_times(tool_path)
-    k = 0
-    for a, b in _pieces_of(tool_path):
-        assert np.abs(pts[k] - tool_path.samples[a]).max() <= 0.5e-4 + 1e-12  # the approach ends on the first sample
-        seg = pts[k + 1 : k + (b - a)]
-        assert np.abs(seg - tool_path.samples[a + 1 : b]).max() <= 0.5e-4 + 1e-12
-        # G94: the time of each written block, length / F, is the planned one
-        prev = pts[k : k + (b - a) - 1]
-        t = np.linalg.norm(seg - prev, axis=1) * 60.0 / feed[k + 1 : k + (b - a)]
-        assert np.allclose(t, dt[a + 1 : b], rtol=1e-3)
-        k += (b - a) + 1  # + the retract
-
+    runs = _path_runs(text)
+    assert len(runs) == len(_pieces_of(tool_path))
+    for (a, b), (pts, feed, inv, t) in zip(_pieces_of(tool_path), runs):
+        assert np.abs(pts - tool_path.samples[a:b]).max() <= RES  # the approach ends on the first sample
+        assert not inv.any()
+        # G94: each block's time, length / F in force, is the planned one (F left out where within 0.1 %)
+        assert np.abs(t / dt[a + 1 : b] - 1).max() <= FEED_RES + 1e-4
 
 def test_tool_radius_writes_the_centre_with_inverse_time_feeds(tool_path):
     r = 3.0
-    text = _gcode(tool_path, tool_radius=r)
+    text = _gcode(tool_path, tool_radius=r, segmenting="period")
     assert "G93\n" in text and "COORDINATES: TOOL CENTRE" in text and "3.0 mm" in text and "FEED: G93" in text
-    pts, feed = _g01(text)
     normals = sample_normals(tool_path)
     dt = planned_segment_times(tool_path)
-    k = 0
-    for a, b in _pieces_of(tool_path):
-        seg = pts[k + 1 : k + (b - a)]
-        centre = tool_path.samples[a + 1 : b] + r * normals[a + 1 : b]
-        assert np.abs(seg - centre).max() <= 0.5e-4 + 1e-12
-        assert np.abs(np.linalg.norm(seg - tool_path.samples[a + 1 : b], axis=1) - r).max() <= 1e-4
+    for (a, b), (pts, feed, inv, t) in zip(_pieces_of(tool_path), _path_runs(text)):
+        centre = tool_path.samples[a:b] + r * normals[a:b]
+        assert np.abs(pts - centre).max() <= RES
+        assert np.abs(np.linalg.norm(pts - tool_path.samples[a:b], axis=1) - r).max() <= 1e-4
         # inverse time: F = 1 / minutes of the block, the planned time whatever the offset
-        assert np.allclose(60.0 / feed[k + 1 : k + (b - a)], dt[a + 1 : b], rtol=1e-6)
-        k += (b - a) + 1
-    # G93 only around the path moves: the approach and retract are in mm/min
+        assert inv.all() and np.allclose(60.0 / feed, dt[a + 1 : b], rtol=1e-6)
     body = _lines(text)
     g93 = [i for i, ln in enumerate(body) if ln == "G93"]
+    # G93 only around the path moves: the approach and retract are in mm/min; F on every block in G93
     assert all(body[i - 1].endswith("F300.000") and body[i - 1].startswith("G01") for i in g93)
-
+    for i in g93:
+        j = i + 1
+        while body[j] != "G94":
+            assert " F" in body[j] or body[j].startswith("F"), body[j]
+            j += 1
 
 def test_per_minute_feed_is_rescaled_to_the_driven_point(tool_path):
     r = 3.0
-    text = _gcode(tool_path, tool_radius=r, feed_mode="per-minute")
+    text = _gcode(tool_path, tool_radius=r, feed_mode="per-minute", segmenting="period")
     assert "G93" not in text
-    pts, feed = _g01(text)
-    contact = _g01(_gcode(tool_path))[1]
+    contact = _path_runs(_gcode(tool_path, segmenting="period"))
     dt = planned_segment_times(tool_path)
-    k = 0
     ratios = []
-    for a, b in _pieces_of(tool_path):
-        seg, prev = pts[k + 1 : k + (b - a)], pts[k : k + (b - a) - 1]
-        t = np.linalg.norm(seg - prev, axis=1) * 60.0 / feed[k + 1 : k + (b - a)]
-        assert np.allclose(t, dt[a + 1 : b], rtol=1e-3)
-        ratios.append(feed[k + 1 : k + (b - a)] / contact[k + 1 : k + (b - a)])
-        k += (b - a) + 1
+    for (a, b), (pts, feed, inv, t), (_, cfeed, _, _) in zip(_pieces_of(tool_path), _path_runs(text), contact):
+        assert np.abs(t / dt[a + 1 : b] - 1).max() <= FEED_RES + 1e-4
+        ratios.append(feed / cfeed)
     ratios = np.concatenate(ratios)
     # on a convex cap the centre runs a longer path than the contact point: every F is raised
     assert np.median(ratios) > 1.0 + 0.5 * r / 30.0
-
 
 def test_linuxcnc_refuses_nurbs_and_bad_modes(tool_path):
     with pytest.raises(ParameterError, match="LinuxCNC cannot run G06.2") as e:
@@ -332,7 +333,10 @@ def test_xyz_and_csv_posts_write_the_record_files(tool_path, tmp_path):
 def test_machining_time_is_the_feed_moves_of_the_file(tool_path, tmp_path):
     info = write_program(tool_path, tmp_path, post="linuxcnc")
     n_pieces = len(_pieces_of(tool_path))
-    assert info["path_time_s"] == pytest.approx(planned_segment_times(tool_path).sum(), rel=1e-9)
+    # the blocks keep the planned time, but where F is left out (within 0.1 %)
+    assert info["path_time_s"] == pytest.approx(planned_segment_times(tool_path).sum(), rel=FEED_RES)
+    assert info["segmenting"] == "chord" and info["motion_blocks"] < len(tool_path.samples)
+    assert info["lines_per_dwell_point"] == pytest.approx(info["motion_blocks"] / len(tool_path.surface_path.xyz))
     assert info["machining_time_s"] == pytest.approx(info["path_time_s"] + n_pieces * 2 * 2.0 * 60 / 300.0)
     assert (tmp_path / "toolpath.nc").read_text().count("\nG00 Z") == 3 * n_pieces
 
@@ -360,7 +364,8 @@ def test_post_options_from_the_command_line_and_a_post_table(tmp_path):
 
     safe = s["post"]["clearance_z_mm"]
     zs = [ln.params["Z"] for ln in parse_gcode_lines(nc) if "Z" in ln.params and abs(ln.params["Z"] - safe) > 1e-4]
-    assert safe == pytest.approx(max(zs) + 8.0, abs=1e-4)  # 8 mm over the highest other move
+    # 8 mm over the highest point the tool can reach (a bound from the curve's control points)
+    assert max(zs) + 8.0 - 1e-4 <= safe <= max(zs) + 8.0 + 0.5
     assert f"\nG00 Z{s['post']['clearance_z_mm']:.4f}\n" in nc
     # the run's own job.toml keeps the [post] table: re-running it writes the same G-code
     r = subprocess.run([*base, "--config", str(tmp_path / "a" / "job.toml"), "-o", str(tmp_path / "b")],
@@ -415,3 +420,188 @@ def test_a_tool_larger_than_the_concave_radius_is_warned(tmp_path):
     assert g["interference_mm"] > 1.0
     r = subprocess.run([*base, "--tool-radius", "5", "-o", str(tmp_path / "b")], capture_output=True, text=True)
     assert r.returncode == 0 and "warning" not in r.stderr, r.stderr
+
+
+# --------------------------------------------------------------------------- chord-tolerance segmenting (issue 15)
+
+
+def _dist_to_segment(q, a, b):
+    e = b - a
+    ll = float(e @ e)
+    t = np.clip((q - a) @ e / ll, 0, 1) if ll > 0 else np.zeros(len(q))
+    return np.linalg.norm(a + t[:, None] * e - q, axis=1)
+
+
+def _scheduled_region_times(tp, k):
+    """The schedule's time per dwell region of piece k (time linear in the parameter between samples)."""
+    a, b = _pieces_of(tp)[k]
+    t = np.cumsum(planned_segment_times(tp)[a:b])
+    u = tp.sample_params[a:b]
+    da, db = tp.surface_path.planar.pieces[k], tp.surface_path.planar.pieces[k + 1]
+    rb = dwell_regions(tp.dwell_params[da:db], u[0], u[-1])
+    return np.diff(np.interp(rb, u, t)), rb
+
+
+@pytest.mark.parametrize("radius", [0.0, 3.0])
+def test_segmenting_keeps_dwell_points_on_the_path_and_the_chord_within_tolerance(tool_path, radius):
+    post = get_post("linuxcnc")
+    blocks = post.segment_blocks(tool_path, radius)
+    sp = tool_path.surface_path
+    tol = tool_path.provenance.params["chord_tol_mm"]  # the default: the smoothing stage's
+    assert len(blocks) == len(_pieces_of(tool_path))
+    normals = sample_normals(tool_path)
+    for k, (P, T, U) in enumerate(blocks):
+        a, b = sp.planar.pieces[k], sp.planar.pieces[k + 1]
+        dw = sp.xyz[a:b] + radius * sp.normals[a:b]
+        # every dwell point is a block end, on the path to 1e-9 mm
+        assert max(np.linalg.norm(P - d, axis=1).min() for d in dw) <= 1e-9
+        assert np.all(np.diff(U) > 0) and np.all(np.diff(T) > 0)
+        sa, sb = _pieces_of(tool_path)[k]
+        assert len(P) < (sb - sa) + (b - a)  # merged: fewer block ends than samples + dwell points
+        u, s = tool_path.sample_params[sa:sb], tool_path.samples[sa:sb] + radius * normals[sa:sb]
+        worst = 0.0
+        for i in range(len(P) - 1):
+            inner = (u > U[i]) & (u < U[i + 1])
+            if not inner.any():
+                continue
+            # the samples the block replaces and the curve at 1/4, 1/2, 3/4 between them (where the smoothing
+            # stage checks its own chords) are within the tolerance of the block
+            ui = np.concatenate([[U[i]], u[inner], [U[i + 1]]])
+            uq = (ui[:-1, None] + np.array([0.25, 0.5, 0.75]) * np.diff(ui)[:, None]).ravel()
+            q = evaluate(tool_path.curve, uq)
+            if radius:
+                from polishpath.export.chunks import normals_at
+
+                q = q + radius * normals_at(tool_path, uq)
+            worst = max(worst, _dist_to_segment(np.vstack([s[inner], q]), P[i], P[i + 1]).max())
+        assert 0.3 * tol < worst <= tol * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("radius", [0.0, 3.0])
+def test_delivered_time_around_every_dwell_point_is_within_its_tolerance(tool_path, radius):
+    from gcode_helpers import delivered_region_times, points_at_params
+
+    time_tol = 0.01
+    text = _gcode(tool_path, tool_radius=radius)
+    assert ("G93" in text) == (radius > 0)
+    sp = tool_path.surface_path
+    driven = tool_path.samples + radius * sample_normals(tool_path)
+    for k, (pts, feed, inv, t) in enumerate(_path_runs(text)):
+        sched, rb = _scheduled_region_times(tool_path, k)
+        a, b = sp.planar.pieces[k], sp.planar.pieces[k + 1]
+        sa, sb = _pieces_of(tool_path)[k]
+        # each region boundary where the schedule places it: on the sampled path, linear in the parameter
+        bq = points_at_params(driven[sa:sb], tool_path.sample_params[sa:sb], rb[1:-1])
+        got = delivered_region_times(pts, t, sp.xyz[a:b] + radius * sp.normals[a:b], bq)
+        rel = np.abs(got / sched - 1)
+        assert rel.max() <= time_tol, rel.max()
+        assert got.sum() == pytest.approx(sched.sum(), rel=FEED_RES)
+
+
+def test_modal_words_parse_back_with_both_parsers_to_the_same_points(tool_path):
+    for kw in ({}, {"tool_radius": 3.0}, {"segmenting": "period"}):
+        text = _gcode(tool_path, **kw)
+        a, b = moves_gcodeparser(text), moves_pygcode(text)
+        assert len(a.ends) == len(b.ends) > len(tool_path.surface_path.xyz)
+        assert np.array_equal(a.ends, b.ends) and np.array_equal(a.feed, b.feed)
+        assert np.array_equal(a.inverse, b.inverse) and np.array_equal(a.rapid, b.rapid)
+        # the blocks' end points are the unrounded segmenting's, to the coordinate resolution
+        blocks = get_post("linuxcnc", {k: v for k, v in kw.items() if k != "tool_radius"}).segment_blocks(
+            tool_path, kw.get("tool_radius", 0.0))
+        for (pts, *_), (P, _, _) in zip(_path_runs(text), blocks):
+            assert pts.shape == P.shape and np.abs(pts - P).max() <= RES
+    # no path block repeats a word that did not change; G94's F changes by more than its resolution
+    text = _gcode(tool_path)
+    pos, f = {}, None
+    for ln in _lines(text):
+        words = dict((w[0], float(w[1:])) for w in ln.split() if w[0] in "XYZF")
+        if ln[0] in "XYZF":
+            assert not ln.startswith("G")
+            for axis in "XYZ":
+                if axis in words:
+                    assert words[axis] != pos.get(axis), ln
+            if "F" in words:
+                assert abs(words["F"] - f) > FEED_RES * f, ln
+        pos.update({k: v for k, v in words.items() if k in "XYZ"})
+        f = words.get("F", f)
+    body = _lines(text)
+    assert sum(ln.startswith("G01") for ln in body) == 2 * len(_pieces_of(tool_path))  # the approach, the retract
+
+
+def test_a_coarser_tolerance_writes_fewer_blocks_and_the_counts_are_reported(tool_path):
+    fine = write_gcode(tool_path, io.StringIO())
+    coarse = write_gcode(tool_path, io.StringIO(), chord_tol_mm=0.05, time_tol=0.05)
+    period = write_gcode(tool_path, io.StringIO(), segmenting="period")
+    assert coarse["motion_blocks"] < fine["motion_blocks"] < period["motion_blocks"]
+    assert coarse["bytes_per_dwell_point"] < fine["bytes_per_dwell_point"] < period["bytes_per_dwell_point"]
+    n = len(tool_path.surface_path.xyz)
+    assert fine["lines_per_dwell_point"] == pytest.approx(fine["motion_blocks"] / n)
+    text = _gcode(tool_path)
+    assert f"motion blocks: {fine['motion_blocks']} for {n} dwell points" in text
+    assert "bytes per dwell point" in text and "(segment_time_tol: 0.01)" in text
+
+
+@pytest.mark.parametrize("bad, words", [
+    ({"segmenting": "arcs"}, "segmenting must be one of chord, period"),
+    ({"chord_tol_mm": 0.0}, "chord_tol_mm must be a number of mm > 0"),
+    ({"time_tol": 1.5}, "time_tol must be a fraction"),
+    ({"feed_resolution": 0.02}, "feed_resolution .* must be smaller than time_tol"),
+])
+def test_bad_segmenting_settings_are_refused_by_name(bad, words):
+    with pytest.raises(ParameterError, match=words):
+        get_post("linuxcnc", bad)
+
+
+# --------------------------------------------------------------------------- streamed writers (issue 15, item 4)
+
+
+@pytest.mark.parametrize("post, kw", [("linuxcnc", {}), ("linuxcnc", {"tool_radius": 3.0}),
+                                      ("linuxcnc", {"segmenting": "period"}), ("fanuc", {}),
+                                      ("fanuc", {"mode": "linear", "tool_radius": 2.0})])
+def test_chunked_samples_write_the_same_bytes(tool_path, post, kw):
+    from polishpath.export import sample_chunks
+
+    whole = _gcode(tool_path, post=post, **kw)
+    for size in (1, 7, 333):
+        buf = io.StringIO()
+        write_gcode(tool_path, buf, post=post, chunks=sample_chunks(tool_path, size), **kw)
+        assert buf.getvalue() == whole, size
+
+
+def test_streamed_run_folder_files_equal_the_in_memory_ones(tool_path, tmp_path):
+    import dataclasses
+
+    from polishpath.errors import ExportError
+    from polishpath.export import SampleChunk, sample_chunks
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    write_program(tool_path, a)
+    write_xyz(tool_path, a / "toolpath.xyz")
+    # a streamed job: the ToolPath without its samples, the samples as chunks of odd sizes
+    bare = dataclasses.replace(tool_path, samples=np.zeros((0, 3)), sample_params=np.zeros(0),
+                               feed_mm_min=np.zeros(0))
+    sizes = iter([5, 1, 77, 1000, 3] * 1000)
+
+    def chunks():
+        for c in sample_chunks(tool_path, 1 << 30):
+            i = 0
+            while i < len(c):
+                n = next(sizes)
+                yield SampleChunk(c.samples[i:i + n], c.sample_params[i:i + n], c.feed_mm_min[i:i + n], c.piece)
+                i += n
+
+    info = write_program(bare, b, chunks=chunks(), xyz=True)
+    assert info["xyz_path"] == str(b / "toolpath.xyz") and info["samples"] == len(tool_path.samples)
+    for name in ("toolpath.nc", "toolpath.xyz"):
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    info = write_program(bare, b, post="xyz", chunks=chunks())
+    assert (a / "toolpath.xyz").read_bytes() == (b / "toolpath.xyz").read_bytes()
+    assert info["path_time_s"] == pytest.approx(planned_segment_times(tool_path).sum(), rel=1e-12)
+    # chunks out of order are refused by name
+    bad = list(sample_chunks(tool_path, 500))[::-1]
+    with pytest.raises(ExportError, match="pieces must come in order"):
+        write_program(bare, b, chunks=bad)
+    with pytest.raises(ExportError, match=r"\(m >= 1, 3\)"):
+        SampleChunk(np.zeros((0, 3)), np.zeros(0), np.zeros(0), 0)

@@ -7,6 +7,11 @@
   ``linuxcnc`` by default, ``fanuc`` for G06.2 NURBS), :func:`write_gcode`;
 * ``summary.json``  :func:`write_summary_json`.
 
+A streamed job hands the machine samples to the writers as an iterable of
+:class:`SampleChunk` (``write_program(..., chunks=..., xyz=True)`` writes the
+post's file and ``toolpath.xyz`` in one pass; :func:`sample_chunks` cuts an
+in-memory ToolPath the same way); the bytes do not depend on the chunks.
+
 Every writer takes a path or an open text file. Given a path it writes to a
 temporary file in the same folder and renames it into place, so an interrupted
 run (Ctrl-C) never leaves a half-written file. :func:`read_xyz`,
@@ -19,6 +24,7 @@ from typing import Any
 
 from ..errors import ParameterError
 from ..types import Surface, ToolPath
+from .chunks import SampleChunk, sample_chunks
 from .files import (
     PATH_CSV_COLUMNS,
     read_dwell_times,
@@ -27,6 +33,7 @@ from .files import (
     write_path_csv,
     write_summary_json,
     write_xyz,
+    xyz_writer,
 )
 from .post import DEFAULT_POST, POSTS, PostSettings, get_post, offset_along_normals, write_program
 
@@ -45,12 +52,15 @@ __all__ = [
     "DEFAULT_POST",
     "PostSettings",
     "PATH_CSV_COLUMNS",
+    "SampleChunk",
+    "sample_chunks",
+    "xyz_writer",
 ]
 
 
 def write_gcode(tool_path: ToolPath, file, *, post: str = DEFAULT_POST, mode: str | None = None,
                 tool_radius: float = 0.0, header: dict | None = None, surface: Surface | None = None,
-                **settings: Any) -> dict[str, Any]:
+                chunks=None, **settings: Any) -> dict[str, Any]:
     """G-code of a G-code post (``linuxcnc`` or ``fanuc``) into ``file`` (path or text file).
 
     Parameters
@@ -67,8 +77,10 @@ def write_gcode(tool_path: ToolPath, file, *, post: str = DEFAULT_POST, mode: st
         Everything to record in the header comment (surface, spacing, seed, parameters).
     surface : Surface, optional
         The part's mesh, for the gouge check of a tool radius (``warnings`` in the result).
+    chunks : iterable of SampleChunk, optional
+        The machine samples in chunks (a streamed job); default: the ToolPath's own.
     **settings
-        :class:`PostSettings` fields (clearance_mm, spindle_rpm, feed_mode ...).
+        :class:`PostSettings` fields (clearance_mm, spindle_rpm, feed_mode, segmenting, time_tol ...).
 
     Returns
     -------
@@ -78,4 +90,4 @@ def write_gcode(tool_path: ToolPath, file, *, post: str = DEFAULT_POST, mode: st
     p = get_post(post, settings or None)
     if p.filename != "toolpath.nc":
         raise ParameterError(f"The {post} post writes {p.filename}, not G-code.", "Use post='linuxcnc' or 'fanuc'.")
-    return p.write(tool_path, file, mode=mode, tool_radius=tool_radius, header=header, surface=surface)
+    return p.write(tool_path, file, mode=mode, tool_radius=tool_radius, header=header, surface=surface, chunks=chunks)

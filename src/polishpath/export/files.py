@@ -20,7 +20,7 @@ from ..errors import ExportError, ParameterError
 from ..types import SurfacePath, ToolPath
 from .textfmt import format_csv, format_fixed
 
-__all__ = ["write_path_csv", "read_path_csv", "write_xyz", "read_xyz", "write_summary_json", "read_dwell_times",
+__all__ = ["write_path_csv", "read_path_csv", "write_xyz", "xyz_writer", "read_xyz", "write_summary_json", "read_dwell_times",
            "PATH_CSV_COLUMNS"]
 
 PATH_CSV_COLUMNS = ("index", "i", "j", "u", "v", "x", "y", "z", "nx", "ny", "nz", "dwell_time")
@@ -201,6 +201,24 @@ def write_xyz(tool_path: ToolPath | np.ndarray, file, *, decimals: int = 6) -> N
     with _bytes_out(file) as write:
         for a in range(0, len(pts), CHUNK_ROWS):
             write(format_fixed(pts[a : a + CHUNK_ROWS], decimals))
+
+
+@contextlib.contextmanager
+def xyz_writer(file, *, decimals: int = 6) -> Iterator:
+    """Yield ``add(chunk)``: each :class:`~polishpath.export.chunks.SampleChunk`'s samples as ``X Y Z`` lines.
+
+    The streamed form of :func:`write_xyz` (same bytes for the same samples, whatever the chunks).
+    """
+    with _bytes_out(file) as write:
+
+        def add(chunk) -> None:
+            pts = chunk.samples
+            if not np.all(np.isfinite(pts)):
+                raise ExportError("write_xyz needs finite points; a chunk holds NaN or inf.")
+            for a in range(0, len(pts), CHUNK_ROWS):
+                write(format_fixed(pts[a : a + CHUNK_ROWS], decimals))
+
+        yield add
 
 
 def read_xyz(file) -> np.ndarray:

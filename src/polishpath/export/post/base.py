@@ -32,20 +32,23 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Iterable
 
 import numpy as np
 
 from ..._version import __version__
 from ...errors import ParameterError
 from ...types import Surface, ToolPath
-from ..files import _fmt, _rounded, _text_out
-from ..textfmt import format_fixed
+from ..chunks import SampleChunk, checked_chunks, dwell_offsets, normals_at, sample_chunks
+from ..files import _bytes_out, _fmt
+from ..segment import PieceSegmenter
 from .gouge import gouge_check
+from .linear import LinearMotion
 
-__all__ = ["PostSettings", "PostProcessor", "GcodePost", "Piece", "offset_along_normals", "planned_segment_times"]
+__all__ = ["PostSettings", "PostProcessor", "GcodePost", "offset_along_normals", "planned_segment_times"]
 
 FEED_MODES = ("auto", "inverse-time", "per-minute")
+SEGMENTINGS = ("chord", "period")
 
 
 @dataclass(frozen=True)
@@ -78,7 +81,23 @@ class PostSettings:
         ``auto``: inverse time (G93) where the controller has it and a tool-radius
         offset is set, else feed per minute (G94) with F rescaled to the driven point.
     decimals, feed_decimals : int
-        Digits after the decimal point of coordinates (mm) and of F.
+        Digits after the decimal point of coordinates (mm) and of F (4: a
+        coordinate resolution of 0.1 um; 3: 0.001 mm/min, or 0.001 / min in G93).
+    segmenting : {"chord", "period"}
+        ``chord`` (default): G01 blocks merge consecutive machine samples while the
+        chord and time tolerances hold, every dwell point a block end
+        (:mod:`polishpath.export.segment`); ``period``: one block per sample at
+        the constant interpolation period.
+    chord_tol_mm : float or None
+        Largest distance of the smooth curve from a merged block, mm; None (default):
+        the smoothing stage's chord tolerance (1 um by default).
+    time_tol : float
+        Largest relative difference between the time the G-code spends around a
+        dwell point (its region) and the schedule, 0.01 = 1 %.
+    feed_resolution : float
+        G94: F is written again only when a block's feed differs from the F in
+        force by more than this fraction of it (0.001 = 0.1 %; its share of
+        ``time_tol`` is kept free for it). G93 writes F on every block.
     postamble : str
         Last lines (``"M5 M9\\nM30"``: spindle and slurry off, end of program).
     program_number : int or None
@@ -98,6 +117,10 @@ class PostSettings:
     feed_mode: str = "auto"
     decimals: int = 4
     feed_decimals: int = 3
+    segmenting: str = "chord"
+    chord_tol_mm: float | None = None
+    time_tol: float = 0.01
+    feed_resolution: float = 0.001
     postamble: str = "M5 M9\nM30"
     program_number: int | None = None
     comments: bool = True
@@ -134,6 +157,19 @@ class PostSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 9:
                 raise ParameterError(f"{where}: {name} must be a whole number 0..9, got {v!r}.")
+        if self.segmenting not in SEGMENTINGS:
+            raise ParameterError(f"{where}: segmenting must be one of {', '.join(SEGMENTINGS)}, got {self.segmenting!r}.")
+        c = self.chord_tol_mm
+        if c is not None and (isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) or c <= 0):
+            raise ParameterError(f"{where}: chord_tol_mm must be a number of mm > 0 (or left out), got {c!r}.")
+        for name in ("time_tol", "feed_resolution"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v < 1:
+                raise ParameterError(f"{where}: {name} must be a fraction between 0 and 1, got {v!r}.")
+        if self.feed_resolution >= self.time_tol:
+            raise ParameterError(f"{where}: feed_resolution ({self.feed_resolution}) must be smaller than time_tol "
+                                 f"({self.time_tol}): a block may run off its time by feed_resolution.",
+                                 "Lower feed_resolution or raise time_tol.")
         if self.feed_mode not in FEED_MODES:
             raise ParameterError(f"{where}: feed_mode must be one of {', '.join(FEED_MODES)}, got {self.feed_mode!r}.")
         if self.program_number is not None and (isinstance(self.program_number, bool) or
@@ -163,20 +199,6 @@ def planned_segment_times(tool_path: ToolPath) -> np.ndarray:
         dt[1:] = np.linalg.norm(np.diff(s, axis=0), axis=1) * 60.0 / np.maximum(tool_path.feed_mm_min[1:], 1e-300)
     dt[np.asarray(tool_path.stats.get("sample_pieces", [0, len(s)]))[:-1]] = 0.0
     return dt
-
-
-@dataclass(frozen=True)
-class Piece:
-    """One continuous run of the tool on the part, as the post writes it.
-
-    ``points`` (m, 3) driven point (tool centre or contact point), mm;
-    ``normals`` (m, 3) unit surface normals; ``dt`` (m,) planned seconds of the
-    move arriving at each point (``dt[0] = 0``).
-    """
-
-    points: np.ndarray
-    normals: np.ndarray
-    dt: np.ndarray
 
 
 class PostProcessor:
@@ -226,11 +248,15 @@ class PostProcessor:
         return (f"The {self.name} post cannot write {mode} moves.", f"Use --gcode {self.modes[0]}.")
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None, surface: Surface | None = None) -> dict[str, Any]:
+              header: dict | None = None, surface: Surface | None = None, chunks: Iterable[SampleChunk] | None = None,
+              also: tuple = ()) -> dict[str, Any]:
         """Write the file; returns what it wrote (post, mode, feed mode, coordinates, times, lines).
 
         ``surface`` (the part's mesh), when given with a tool radius, is used for the
-        gouge check (:func:`polishpath.export.post.gouge.gouge_check`).
+        gouge check (:func:`polishpath.export.post.gouge.gouge_check`). ``chunks``: the
+        machine samples as :class:`~polishpath.export.chunks.SampleChunk` s (a streamed
+        job; default: the ToolPath's own, cut into chunks), read once; each chunk is
+        also passed to every callable in ``also`` (e.g. the xyz writer of the same pass).
         """
         raise NotImplementedError
 
@@ -265,17 +291,6 @@ class GcodePost(PostProcessor):
     inverse_time: ClassVar[bool] = False  # the controller has G93
     label: ClassVar[str] = ""  # a header line saying which controllers the file is for
 
-    # ---------------------------------------------------------------- the pieces
-    def pieces(self, tool_path: ToolPath, tool_radius: float) -> list[Piece]:
-        """The sampled path per piece, offset to the tool centre when ``tool_radius > 0``."""
-        from ...smooth import sample_normals
-
-        normals = sample_normals(tool_path)
-        pts = tool_path.samples if tool_radius == 0 else offset_along_normals(tool_path.samples, normals, tool_radius)
-        dt = planned_segment_times(tool_path)
-        off = np.asarray(tool_path.stats.get("sample_pieces", [0, len(pts)]))
-        return [Piece(pts[a:b], normals[a:b], dt[a:b]) for a, b in zip(off[:-1], off[1:]) if b > a]
-
     def feed_mode(self, tool_radius: float) -> str:
         fm = self.settings.feed_mode
         if fm == "auto":
@@ -292,60 +307,95 @@ class GcodePost(PostProcessor):
     def ff(self, v: float) -> str:
         return _fmt(v, self.settings.feed_decimals)
 
-    def linear_rows(self, piece: Piece, feed_mode: str) -> tuple[np.ndarray, float]:
-        """``G01`` rows (X, Y, Z, F) for the piece's moves after its first point, and their time, s.
+    def chord_tol(self, tool_path: ToolPath) -> float:
+        """The smoothing stage's chord tolerance, mm (the blending's and, by default, the segmenting's)."""
+        return float(tool_path.provenance.params.get("chord_tol_mm", tool_path.stats.get("chord_tol_mm", 0.001)))
 
-        Consecutive samples that round to the same written point are merged (their
-        time goes to the next written move), so no zero-length block is written
-        and the piece's time is kept.
+    # ---------------------------------------------------------------- per piece
+    def driven(self, tool_path: ToolPath, tool_radius: float):
+        """``driven(points, params) -> driven points``: contact points moved ``tool_radius`` along the normal."""
+
+        def at(points, params):
+            if tool_radius == 0:
+                return points
+            return offset_along_normals(points, normals_at(tool_path, params), tool_radius)
+
+        return at
+
+    def motion(self, tool_path: ToolPath, k: int, write, feed_mode: str, mode: str, tool_radius: float,
+               ctx: dict) -> LinearMotion:
+        """The writer of piece ``k``'s moves (``start``, ``add`` per chunk, ``finish``); linear G01 here."""
+        from ...smooth import evaluate
+
+        s = self.settings
+        sp = tool_path.surface_path
+        a, b = ctx["dwell_offsets"][k], ctx["dwell_offsets"][k + 1]
+        # every dwell point a block end: the contact point, or the tool centre along its own normal
+        dpts = sp.xyz[a:b] if tool_radius == 0 else offset_along_normals(sp.xyz[a:b], sp.normals[a:b], tool_radius)
+        at = self.driven(tool_path, tool_radius)
+        inverse = feed_mode == "inverse-time"
+        seg = PieceSegmenter(tool_path.dwell_params[a:b], dpts, lambda u: at(evaluate(tool_path.curve, u), u),
+                             ctx["segment_tol_mm"], s.time_tol - (0.0 if inverse else s.feed_resolution),
+                             merge=s.segmenting == "chord")
+        return LinearMotion(seg, write, decimals=s.decimals, feed_decimals=s.feed_decimals, inverse_time=inverse,
+                            feed_resolution=s.feed_resolution, feed_in_force=s.approach_feed_mm_min)
+
+    def segment_blocks(self, tool_path: ToolPath, tool_radius: float = 0.0,
+                       chunks: Iterable[SampleChunk] | None = None) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The linear blocks before rounding, per piece: (points (k, 3) mm, planned times (k,) s, params (k,)).
+
+        The piece's first point (the approach's end) first, then every block end, as
+        :meth:`write` segments them (for checks and benchmarks; the file rounds them).
         """
-        d = self.settings.decimals
-        w = _rounded(piece.points, d)
-        if len(w) < 2:
-            return np.zeros((0, 4)), 0.0
-        moved = np.any(w[1:] != w[:-1], axis=1)
-        keep = np.concatenate([[0], 1 + np.flatnonzero(moved)])
-        t = np.cumsum(piece.dt)
-        tk = t[keep]
-        tk[-1] = t[-1]  # time of trailing merged samples goes to the last written move
-        dtw = np.diff(tk)
-        pw = w[keep]
-        if len(pw) < 2:
-            return np.zeros((0, 4)), 0.0
-        if feed_mode == "inverse-time":
-            feed = 60.0 / np.maximum(dtw, 1e-12)  # 1/min: the block takes 1/F minutes
-        else:
-            feed = np.linalg.norm(np.diff(pw, axis=0), axis=1) * 60.0 / np.maximum(dtw, 1e-12)
-        feed = np.round(feed, self.settings.feed_decimals) + 0.0
-        return np.column_stack([pw[1:], feed]), float(dtw.sum())
+        feed_mode = self.feed_mode(float(tool_radius))
+        ctx = {"dwell_offsets": dwell_offsets(tool_path),
+               "segment_tol_mm": self.settings.chord_tol_mm or self.chord_tol(tool_path)}
+        at = self.driven(tool_path, float(tool_radius))
+        out, seg, parts = [], None, None
 
-    def motion(self, fh, piece: Piece, index: int, feed_mode: str, mode: str, ctx: dict) -> tuple[float, int]:
-        """Write the piece's moves after its first point; returns (seconds, lines). Linear G01 here."""
-        rows, secs = self.linear_rows(piece, feed_mode)
-        d, fd = self.settings.decimals, self.settings.feed_decimals
-        fh.write(format_fixed(rows, [d, d, d, fd], letters="XYZF").decode().replace("\nX", "\nG01 X").join(["G01 ", ""]) if len(rows) else "")
-        return secs, len(rows)
+        def close():
+            if seg is not None:
+                parts.append(seg.finish())
+                out.append(tuple(np.concatenate(x) for x in zip(*parts)))
 
-    def motion_bounds(self, piece: Piece, mode: str, ctx: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Start point, start normal, end point, end normal of the piece's motion."""
-        return piece.points[0], piece.normals[0], piece.points[-1], piece.normals[-1]
+        for starts, c in checked_chunks(sample_chunks(tool_path) if chunks is None else chunks,
+                                        len(ctx["dwell_offsets"]) - 1):
+            pts = at(c.samples, c.sample_params)
+            if starts:
+                close()
+                seg = self.motion(tool_path, c.piece, None, feed_mode, "linear", float(tool_radius), ctx).seg
+                parts = [(pts[:1], np.zeros(1), c.sample_params[:1])]
+            parts.append(seg.add(c.samples, pts, c.sample_params, c.feed_mm_min))
+        close()
+        return out
 
-    def prepare(self, tool_path: ToolPath, pieces: list[Piece], mode: str, tool_radius: float) -> dict:
+    def prepare(self, tool_path: ToolPath, mode: str, tool_radius: float) -> dict:
         """Per-file data a subclass's motion needs (e.g. the NURBS curves); {} here."""
         return {}
 
+    def reach_z(self, tool_path: ToolPath, tool_radius: float, ctx: dict) -> float:
+        """Highest z the tool reaches on the path (a bound): the curve's control points (+ the radius)."""
+        return float(np.max(tool_path.curve.control_points[:, 2])) + tool_radius
+
     # ---------------------------------------------------------------- the file
     def header_lines(self, tool_path: ToolPath, header: dict | None, mode: str, feed_mode: str,
-                     tool_radius: float, safe: float, n_pieces: int) -> list[str]:
+                     tool_radius: float, safe: float, n_pieces: int, ctx: dict) -> list[str]:
         sp = tool_path.surface_path
+        s = self.settings
         hdr: list[tuple[str, Any]] = [("generator", f"polishpath {__version__}"), ("post", self.name)]
         hdr += _flatten_header(header or {})
         hdr += _flatten_header(tool_path.provenance.to_dict(), "smooth.")
         if sp.provenance is not None:
             hdr += _flatten_header(sp.provenance.to_dict(), "map.")
-        hdr += [("mode", mode), ("feed_mode", feed_mode), ("dwell_points", len(sp.xyz)),
-                ("samples", len(tool_path.samples)), ("pieces", n_pieces), ("period_ms", tool_path.period_ms),
-                ("tool_radius_mm", float(tool_radius)), ("safe_z_mm", safe)]
+        hdr += [("mode", mode), ("feed_mode", feed_mode), ("dwell_points", len(sp.xyz)), ("pieces", n_pieces),
+                ("period_ms", tool_path.period_ms), ("tool_radius_mm", float(tool_radius)), ("safe_z_mm", safe),
+                ("coordinate_resolution_mm", 10.0 ** -s.decimals)]
+        if mode == "linear":
+            hdr += [("segmenting", s.segmenting)]
+            if s.segmenting == "chord":
+                hdr += [("segment_chord_tol_mm", ctx["segment_tol_mm"]), ("segment_time_tol", s.time_tol)]
+            if feed_mode != "inverse-time":
+                hdr += [("feed_resolution", s.feed_resolution)]
         lines = [_comment(f"{k}: {v}") for k, v in hdr]
         if self.label:
             lines.append(_comment(self.label))
@@ -362,61 +412,112 @@ class GcodePost(PostProcessor):
         else:
             lines.append(_comment("FEED: G94 mm/min of the driven point, each F set so the block takes its "
                                   "planned time"))
+        if mode == "linear":
+            lines.append(_comment("MODAL WORDS: G01 once per piece [the approach], axis words only when they change"
+                                  + ("" if feed_mode == "inverse-time" else ", F only when the feed changes by more "
+                                     f"than {s.feed_resolution:g} of the F in force")))
         return lines
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None, surface: Surface | None = None) -> dict[str, Any]:
+              header: dict | None = None, surface: Surface | None = None, chunks: Iterable[SampleChunk] | None = None,
+              also: tuple = ()) -> dict[str, Any]:
         mode = self.check(mode=mode, tool_radius=tool_radius)
         tool_radius = float(tool_radius)
         feed_mode = self.feed_mode(tool_radius)
         s = self.settings
-        pieces = self.pieces(tool_path, tool_radius)
-        ctx = self.prepare(tool_path, pieces, mode, tool_radius)
-        bounds = [self.motion_bounds(p, mode, ctx) for p in pieces]
+        sp = tool_path.surface_path
+        doff = dwell_offsets(tool_path)
+        n_pieces = len(doff) - 1
+        ctx = {"dwell_offsets": doff, "segment_tol_mm": s.chord_tol_mm or self.chord_tol(tool_path)}
+        ctx.update(self.prepare(tool_path, mode, tool_radius))
         a = s.approach_mm
-        reach = [np.vstack([p0, p0 + a * n0, p1, p1 + a * n1]) for p0, n0, p1, n1 in bounds]
-        zmax = max([float(np.max(r[:, 2])) for r in reach] + [float(np.max(p.points[:, 2])) for p in pieces] + [0.0])
+        # the clearance plane from what is known before the samples: a bound of the curve, the approach points
+        ends = np.concatenate([doff[:-1], doff[1:] - 1])
+        nrm = sp.normals[ends] / np.maximum(np.linalg.norm(sp.normals[ends], axis=1, keepdims=True), 1e-300)
+        reach = sp.xyz[ends] + (tool_radius + a) * nrm
+        zmax = max(self.reach_z(tool_path, tool_radius, ctx), float(np.max(reach[:, 2])) if len(reach) else 0.0, 0.0)
         safe = zmax + s.clearance_mm
-        tol = float(tool_path.provenance.params.get("chord_tol_mm", tool_path.stats.get("chord_tol_mm", 0.001)))
+        tol = self.chord_tol(tool_path)
         f, ff = self.f, self.ff
-        g9x = "G93" if feed_mode == "inverse-time" else "G94"
-        path_s, appr_s, n_moves = 0.0, 0.0, 0
-        with _text_out(file) as fh:
-            fh.write("%\n")
+        inverse = feed_mode == "inverse-time"
+        chunks = sample_chunks(tool_path) if chunks is None else chunks
+        at = self.driven(tool_path, tool_radius)
+        counts = {"bytes": 0, "samples": 0, "blocks": 0, "path_s": 0.0, "pieces": 0}
+        with _bytes_out(file) as raw:
+
+            def write(b: bytes) -> None:
+                counts["bytes"] += len(b)
+                raw(b)
+
+            def text(t: str) -> None:
+                write(t.encode("ascii"))
+
+            text("%\n")
             if s.program_number is not None:
-                fh.write(f"O{s.program_number:04d}\n")
+                text(f"O{s.program_number:04d}\n")
             if s.comments:
-                fh.write("\n".join(self.header_lines(tool_path, header, mode, feed_mode, tool_radius, safe,
-                                                     len(pieces))) + "\n")
-            fh.write(f"{s.preamble} G94\n".lstrip())
+                text("\n".join(self.header_lines(tool_path, header, mode, feed_mode, tool_radius, safe, n_pieces,
+                                                 ctx)) + "\n")
+            text(f"{s.preamble} G94\n".lstrip())
             if s.safety_block:
-                fh.write(s.safety_block + "\n")
+                text(s.safety_block + "\n")
             if s.blending:
-                fh.write(s.blending.format(tol=_fmt(tol, max(4, s.decimals + 2))) + "\n")
+                text(s.blending.format(tol=_fmt(tol, max(4, s.decimals + 2))) + "\n")
             if s.spindle_rpm > 0:
-                fh.write(f"M3 S{_fmt(s.spindle_rpm, 0)}\n")
+                text(f"M3 S{_fmt(s.spindle_rpm, 0)}\n")
             if s.coolant_on:
-                fh.write(s.coolant_on + "\n")
-            for k, (piece, (p0, n0, p1, n1)) in enumerate(zip(pieces, bounds)):
-                q0, q1 = p0 + a * n0, p1 + a * n1
-                fh.write(f"G00 Z{f(safe)}\nG00 X{f(q0[0])} Y{f(q0[1])}\nG00 Z{f(q0[2])}\n")
-                fh.write(f"G01 X{f(p0[0])} Y{f(p0[1])} Z{f(p0[2])} F{ff(s.approach_feed_mm_min)}\n")
-                if g9x == "G93":
-                    fh.write("G93\n")
-                secs, lines = self.motion(fh, piece, k, feed_mode, mode, ctx)
-                if g9x == "G93":
-                    fh.write("G94\n")
-                fh.write(f"G01 X{f(q1[0])} Y{f(q1[1])} Z{f(q1[2])} F{ff(s.approach_feed_mm_min)}\n")
-                fh.write(f"G00 Z{f(safe)}\n")
-                path_s += secs
-                n_moves += lines
-                appr_s += 2 * a * 60.0 / s.approach_feed_mm_min
-            fh.write(s.postamble.rstrip("\n") + "\n%\n")
+                text(s.coolant_on + "\n")
+            state = {"motion": None, "last": None}
+
+            def end_piece() -> None:
+                m, (p1, u1) = state["motion"], state["last"]
+                n1 = normals_at(tool_path, np.array([u1]))[0]
+                secs, blocks = m.finish()
+                q1 = p1 + a * n1
+                text(("G94\n" if inverse else "") + f"G01 X{f(q1[0])} Y{f(q1[1])} Z{f(q1[2])} "
+                     f"F{ff(s.approach_feed_mm_min)}\nG00 Z{f(safe)}\n")
+                counts["path_s"] += secs
+                counts["blocks"] += blocks
+                counts["pieces"] += 1
+
+            for starts, chunk in checked_chunks(chunks, n_pieces):
+                for sink in also:
+                    sink(chunk)
+                pts = at(chunk.samples, chunk.sample_params)
+                if starts:
+                    if state["motion"] is not None:
+                        end_piece()
+                    p0, n0 = pts[0], normals_at(tool_path, chunk.sample_params[:1])[0]
+                    q0 = p0 + a * n0
+                    text(f"G00 Z{f(safe)}\nG00 X{f(q0[0])} Y{f(q0[1])}\nG00 Z{f(q0[2])}\n"
+                         f"G01 X{f(p0[0])} Y{f(p0[1])} Z{f(p0[2])} F{ff(s.approach_feed_mm_min)}\n"
+                         + ("G93\n" if inverse else ""))
+                    state["motion"] = self.motion(tool_path, chunk.piece, write, feed_mode, mode, tool_radius, ctx)
+                    state["motion"].start(p0)
+                state["motion"].add(chunk.samples, pts, chunk.sample_params, chunk.feed_mm_min)
+                state["last"] = (pts[-1], chunk.sample_params[-1])
+                counts["samples"] += len(chunk)
+            if state["motion"] is not None:
+                end_piece()
+            n_dwell = max(len(sp.xyz), 1)
+            if s.comments:
+                text(_comment(f"motion blocks: {counts['blocks']} for {len(sp.xyz)} dwell points and "
+                              f"{counts['samples']} machine samples; lines per dwell point "
+                              f"{counts['blocks'] / n_dwell:.3f}; bytes per dwell point before this line "
+                              f"{counts['bytes'] / n_dwell:.1f}") + "\n")
+            text(s.postamble.rstrip("\n") + "\n%\n")
         gouge = gouge_check(tool_path, tool_radius, surface) if tool_radius > 0 else None
+        appr_s = counts["pieces"] * 2 * a * 60.0 / s.approach_feed_mm_min
         return {"post": self.name, "file": self.filename, "mode": mode, "feed_mode": feed_mode,
                 "gouge": gouge, "warnings": list(gouge["warnings"]) if gouge else [],
                 "coordinates": "tool centre" if tool_radius > 0 else "contact point", "tool_radius_mm": tool_radius,
                 "blending_tol_mm": tol if s.blending else None, "spindle_rpm": s.spindle_rpm,
                 "clearance_z_mm": safe, "approach_mm": a, "approach_feed_mm_min": s.approach_feed_mm_min,
-                "path_time_s": path_s, "machining_time_s": path_s + appr_s, "motion_blocks": n_moves,
-                "pieces": len(pieces), "settings": dataclasses.asdict(s)}
+                "segmenting": s.segmenting if mode == "linear" else None,
+                "segment_chord_tol_mm": ctx["segment_tol_mm"] if mode == "linear" else None,
+                "time_tol": s.time_tol, "feed_resolution": s.feed_resolution,
+                "coordinate_resolution_mm": 10.0 ** -s.decimals,
+                "path_time_s": counts["path_s"], "machining_time_s": counts["path_s"] + appr_s,
+                "motion_blocks": counts["blocks"], "samples": counts["samples"], "bytes": counts["bytes"],
+                "lines_per_dwell_point": counts["blocks"] / n_dwell, "bytes_per_dwell_point": counts["bytes"] / n_dwell,
+                "pieces": counts["pieces"], "settings": dataclasses.asdict(s)}

@@ -16,6 +16,7 @@ polygon's length (the curve does not depend on the knot scale).
 NURBS blocks carry one feed per piece: F is the piece's driven length over its
 planned time, so each piece takes its planned time, but the dwell times within a
 piece are not kept; ``--gcode linear`` keeps them block by block (G94, F rescaled).
+The piece's blocks are written when its last samples have arrived (F needs them).
 """
 
 from __future__ import annotations
@@ -24,9 +25,48 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ...types import ToolPath
+from ...types import NurbsCurve, ToolPath
+from ..chunks import dwell_offsets
 from ..files import _fmt
-from .base import GcodePost, Piece, offset_along_normals
+from .base import GcodePost, offset_along_normals
+
+
+class NurbsMotion:
+    """The G06.2 blocks of one piece: the piece's time and driven length summed over its chunks, written at the end."""
+
+    def __init__(self, post: "FanucPost", curve: NurbsCurve, write):
+        self.post, self.curve, self.write = post, curve, write
+        self.secs, self.length = 0.0, 0.0
+        self.last_contact = None
+        self.last_driven = None
+
+    def start(self, first_point) -> None:
+        pass
+
+    def add(self, contact, driven, params, feed_mm_min) -> None:
+        pc = contact if self.last_contact is None else np.vstack([self.last_contact[None, :], contact])
+        pd = driven if self.last_driven is None else np.vstack([self.last_driven[None, :], driven])
+        steps = np.linalg.norm(np.diff(pc, axis=0), axis=1)  # the moves arriving at this chunk's samples
+        f = np.asarray(feed_mm_min, dtype=np.float64)[len(feed_mm_min) - len(steps):]
+        self.secs += float(np.sum(steps * 60.0 / np.maximum(f, 1e-300)))
+        self.length += float(np.linalg.norm(np.diff(pd, axis=0), axis=1).sum())
+        self.last_contact, self.last_driven = contact[-1].copy(), driven[-1].copy()
+
+    def finish(self) -> tuple[float, int]:
+        post, c = self.post, self.curve
+        feed = self.length * 60.0 / self.secs if self.secs > 0 else post.settings.approach_feed_mm_min
+        kn = c.knots
+        chord = float(np.linalg.norm(np.diff(c.control_points, axis=0), axis=1).sum()) or 1.0
+        ks = (kn - kn[0]) / (kn[-1] - kn[0]) * chord
+        f, fk = post.f, (lambda v: _fmt(v, post.knot_decimals))
+        cp, w = c.control_points, c.weights
+        rank = c.degree + 1
+        lines = [f"G06.2 P{rank} K{fk(ks[0])} X{f(cp[0, 0])} Y{f(cp[0, 1])} Z{f(cp[0, 2])} R{_fmt(w[0], 4)} "
+                 f"F{post.ff(feed)}"]
+        lines += [f"K{fk(ks[i])} X{f(cp[i, 0])} Y{f(cp[i, 1])} Z{f(cp[i, 2])} R{_fmt(w[i], 4)}" for i in range(1, len(cp))]
+        lines += [f"K{fk(v)}" for v in ks[len(cp):]]
+        self.write(("\n".join(lines) + "\n").encode("ascii"))
+        return self.secs, len(lines)
 
 
 class FanucPost(GcodePost):
@@ -40,15 +80,14 @@ class FanucPost(GcodePost):
     defaults: ClassVar[dict[str, Any]] = {"program_number": 1}
     knot_decimals: ClassVar[int] = 6
 
-    def prepare(self, tool_path: ToolPath, pieces: list[Piece], mode: str, tool_radius: float) -> dict:
+    def prepare(self, tool_path: ToolPath, mode: str, tool_radius: float) -> dict:
         if mode != "nurbs":
             return {}
         from ...smooth import interpolate_nurbs, piece_curves
         from ...smooth.nurbs import bezier_cubic_through
 
         sp = tool_path.surface_path
-        n = len(sp.xyz)
-        dpieces = np.asarray(sp.planar.pieces if sp.planar is not None else [0, n])
+        dpieces = dwell_offsets(tool_path)
         pp = np.asarray(tool_path.stats.get("piece_params", [tool_path.curve.knots[0], tool_path.curve.knots[-1]]))
         curves = piece_curves(tool_path.curve, pp)
         out = []
@@ -60,22 +99,11 @@ class FanucPost(GcodePost):
             out.append(c)
         return {"curves": out}
 
-    def motion(self, fh, piece: Piece, index: int, feed_mode: str, mode: str, ctx: dict) -> tuple[float, int]:
+    def reach_z(self, tool_path: ToolPath, tool_radius: float, ctx: dict) -> float:
+        z = super().reach_z(tool_path, tool_radius, ctx)
+        return max([z] + [float(np.max(c.control_points[:, 2])) for c in ctx.get("curves", [])])
+
+    def motion(self, tool_path, k, write, feed_mode, mode, tool_radius, ctx):
         if mode != "nurbs":
-            return super().motion(fh, piece, index, feed_mode, mode, ctx)
-        c = ctx["curves"][index]
-        secs = float(piece.dt.sum())
-        length = float(np.linalg.norm(np.diff(piece.points, axis=0), axis=1).sum())
-        feed = length * 60.0 / secs if secs > 0 else self.settings.approach_feed_mm_min
-        kn = c.knots
-        chord = float(np.linalg.norm(np.diff(c.control_points, axis=0), axis=1).sum()) or 1.0
-        ks = (kn - kn[0]) / (kn[-1] - kn[0]) * chord
-        f, fk = self.f, (lambda v: _fmt(v, self.knot_decimals))
-        cp, w = c.control_points, c.weights
-        rank = c.degree + 1
-        lines = [f"G06.2 P{rank} K{fk(ks[0])} X{f(cp[0, 0])} Y{f(cp[0, 1])} Z{f(cp[0, 2])} R{_fmt(w[0], 4)} "
-                 f"F{self.ff(feed)}"]
-        lines += [f"K{fk(ks[i])} X{f(cp[i, 0])} Y{f(cp[i, 1])} Z{f(cp[i, 2])} R{_fmt(w[i], 4)}" for i in range(1, len(cp))]
-        lines += [f"K{fk(v)}" for v in ks[len(cp):]]
-        fh.write("\n".join(lines) + "\n")
-        return secs, len(lines)
+            return super().motion(tool_path, k, write, feed_mode, mode, tool_radius, ctx)
+        return NurbsMotion(self, ctx["curves"][k], write)

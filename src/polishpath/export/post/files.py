@@ -4,8 +4,11 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
+import numpy as np
+
 from ...types import ToolPath
-from ..files import write_path_csv, write_xyz
+from ..chunks import checked_chunks, dwell_offsets, sample_chunks
+from ..files import write_path_csv, write_xyz, xyz_writer
 from .base import PostProcessor, planned_segment_times
 
 
@@ -18,13 +21,28 @@ class XyzPost(PostProcessor):
     filename: ClassVar[str] = "toolpath.xyz"
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None, surface=None) -> dict[str, Any]:
+              header: dict | None = None, surface=None, chunks=None, also: tuple = ()) -> dict[str, Any]:
         self.check(mode=mode, tool_radius=tool_radius)
-        write_xyz(tool_path, file)
-        t = float(planned_segment_times(tool_path).sum())
+        if chunks is None and not also:
+            write_xyz(tool_path, file)
+            t = float(planned_segment_times(tool_path).sum())
+            n = len(tool_path.samples)
+        else:
+            t, n, prev = 0.0, 0, None
+            with xyz_writer(file) as add:
+                for starts, c in checked_chunks(chunks if chunks is not None else sample_chunks(tool_path),
+                                                len(dwell_offsets(tool_path)) - 1):
+                    add(c)
+                    for sink in also:
+                        sink(c)
+                    # planned time of the moves arriving at the chunk's samples (none at a piece's first)
+                    pts = c.samples if starts else np.vstack([prev[None, :], c.samples])
+                    f = c.feed_mm_min[len(c) - (len(pts) - 1):]
+                    t += float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1) * 60.0 / np.maximum(f, 1e-300)))
+                    n, prev = n + len(c), c.samples[-1]
         return {"post": self.name, "file": self.filename, "mode": "linear", "feed_mode": "constant period",
                 "coordinates": "contact point", "tool_radius_mm": 0.0, "period_ms": tool_path.period_ms,
-                "path_time_s": t, "machining_time_s": t, "motion_blocks": int(len(tool_path.samples))}
+                "path_time_s": t, "machining_time_s": t, "motion_blocks": int(n)}
 
 
 class CsvPost(PostProcessor):
@@ -35,9 +53,13 @@ class CsvPost(PostProcessor):
     filename: ClassVar[str] = "path.csv"
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
-              header: dict | None = None, surface=None) -> dict[str, Any]:
+              header: dict | None = None, surface=None, chunks=None, also: tuple = ()) -> dict[str, Any]:
         self.check(mode=mode, tool_radius=tool_radius)
         write_path_csv(tool_path, file)
+        if also:  # the samples are not in path.csv; the other writers of the pass still get them
+            for c in (chunks if chunks is not None else sample_chunks(tool_path)):
+                for sink in also:
+                    sink(c)
         t = float(tool_path.dwell_times.sum()) if tool_path.dwell_times is not None else None
         return {"post": self.name, "file": self.filename, "mode": "dwell points", "feed_mode": "dwell times",
                 "coordinates": "contact point", "tool_radius_mm": 0.0, "path_time_s": t, "machining_time_s": t,

@@ -1,0 +1,128 @@
+"""Machine samples in chunks: what a streamed job hands the writers (issue 15, item 4).
+
+A job that cannot hold every machine sample of a multi-day path (10^7 dwell
+points: ~1.5 x 10^8 samples) gives the writers its samples as an iterable of
+:class:`SampleChunk` s, each a run of consecutive samples of one piece, and a
+:class:`~polishpath.types.ToolPath` whose sample arrays are not read (they may
+be empty): the writers take the curve, the dwell points and their parameters,
+the pieces and the provenance from it. The writers produce the same bytes
+whatever the chunk sizes; :func:`sample_chunks` cuts an in-memory ToolPath into
+chunks (the in-memory writers use it).
+
+Contract of the iterable: chunks in path order; each chunk within one piece;
+pieces in order (``piece`` 0, 1, ...), each piece's first chunk starting at
+its first sample (a new ``piece`` value starts a new piece); every chunk at
+least one sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Iterator
+
+import numpy as np
+
+from ..errors import ExportError
+from ..types import ToolPath
+
+__all__ = ["SampleChunk", "sample_chunks", "piece_offsets", "dwell_offsets", "normals_at", "DEFAULT_CHUNK_SAMPLES"]
+
+#: samples per chunk when the in-memory writers cut a ToolPath (about 12 MB of arrays)
+DEFAULT_CHUNK_SAMPLES = 1 << 18
+
+
+@dataclass(frozen=True)
+class SampleChunk:
+    """A run of consecutive machine samples of one piece.
+
+    Attributes
+    ----------
+    samples : (m, 3) float64
+        Contact points at the constant period, mm (``ToolPath.samples`` rows).
+    sample_params : (m,) float64
+        Curve parameter of each sample (``ToolPath.sample_params``).
+    feed_mm_min : (m,) float64
+        Commanded feed at each sample, mm/min (``ToolPath.feed_mm_min``): the
+        planned time of the move arriving at sample k is ``|s_k - s_(k-1)| / feed_k``.
+    piece : int
+        Index of the continuous piece (tool on the part) the samples belong to.
+    """
+
+    samples: np.ndarray
+    sample_params: np.ndarray
+    feed_mm_min: np.ndarray
+    piece: int
+
+    def __post_init__(self):
+        s = np.asarray(self.samples, dtype=np.float64)
+        u = np.asarray(self.sample_params, dtype=np.float64)
+        f = np.asarray(self.feed_mm_min, dtype=np.float64)
+        if s.ndim != 2 or s.shape[1] != 3 or len(s) == 0:
+            raise ExportError(f"SampleChunk.samples must be (m >= 1, 3) points, got shape {s.shape}.")
+        if u.shape != (len(s),) or f.shape != (len(s),):
+            raise ExportError(f"SampleChunk: sample_params {u.shape} and feed_mm_min {f.shape} must be "
+                              f"({len(s)},) like the samples.")
+        if isinstance(self.piece, bool) or not isinstance(self.piece, (int, np.integer)) or self.piece < 0:
+            raise ExportError(f"SampleChunk.piece must be a piece index >= 0, got {self.piece!r}.")
+        object.__setattr__(self, "samples", s)
+        object.__setattr__(self, "sample_params", u)
+        object.__setattr__(self, "feed_mm_min", f)
+        object.__setattr__(self, "piece", int(self.piece))
+
+    def __len__(self) -> int:
+        return len(self.samples)
+
+
+def piece_offsets(tool_path: ToolPath) -> np.ndarray:
+    """(P + 1,) sample offsets of the pieces (``stats["sample_pieces"]``, else one piece)."""
+    return np.asarray(tool_path.stats.get("sample_pieces", [0, len(tool_path.samples)]), dtype=np.int64)
+
+
+def dwell_offsets(tool_path: ToolPath) -> np.ndarray:
+    """(P + 1,) dwell-point offsets of the pieces (the planar path's pieces, else one piece)."""
+    sp = tool_path.surface_path
+    n = len(sp.xyz)
+    if sp.planar is not None and len(sp.planar.pieces) >= 2 and sp.planar.pieces[-1] == n:
+        return np.asarray(sp.planar.pieces, dtype=np.int64)
+    return np.array([0, n], dtype=np.int64)
+
+
+def sample_chunks(tool_path: ToolPath, size: int = DEFAULT_CHUNK_SAMPLES) -> Iterator[SampleChunk]:
+    """The ToolPath's samples as chunks of at most ``size`` samples, cut at every piece."""
+    if size < 1:
+        raise ExportError(f"chunk size must be >= 1 sample, got {size}.")
+    off = piece_offsets(tool_path)
+    for k, (a, b) in enumerate(zip(off[:-1], off[1:])):
+        for c in range(int(a), int(b), size):
+            e = min(c + size, int(b))
+            yield SampleChunk(tool_path.samples[c:e], tool_path.sample_params[c:e], tool_path.feed_mm_min[c:e], k)
+
+
+def checked_chunks(chunks: Iterable[SampleChunk], n_pieces: int) -> Iterator[tuple[bool, SampleChunk]]:
+    """``(starts_piece, chunk)`` for each chunk, refusing an iterable that breaks the contract."""
+    current = -1
+    for c in chunks:
+        if not isinstance(c, SampleChunk):
+            raise ExportError(f"The writers take SampleChunk objects, got {type(c).__name__}.")
+        if c.piece != current:
+            if c.piece != current + 1 or c.piece >= n_pieces:
+                raise ExportError(f"Chunk of piece {c.piece} after piece {current}: pieces must come in order "
+                                  f"0..{n_pieces - 1}, each once.")
+            current = c.piece
+            yield True, c
+        else:
+            yield False, c
+
+
+def normals_at(tool_path: ToolPath, params: np.ndarray) -> np.ndarray:
+    """Unit surface normals at curve parameters, (m, 3): as :func:`polishpath.smooth.sample_normals` does for samples.
+
+    Linear in the parameter between the two neighbouring dwell points' normals, then normalised.
+    """
+    sp = tool_path.surface_path
+    dp = tool_path.dwell_params
+    u = np.asarray(params, dtype=np.float64)
+    nrm = np.stack([np.interp(u, dp, sp.normals[:, j]) for j in range(3)], axis=1)
+    ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+    near = sp.normals[np.clip(np.searchsorted(dp, u), 0, len(dp) - 1)]
+    return np.where(ln > 1e-9, nrm / np.maximum(ln, 1e-300), near)
