@@ -86,3 +86,31 @@ def test_dwell_time_csv(tool_path, tmp_path):
         read_dwell_times(io.StringIO("0.5\n0.25\n"), 3)
     with pytest.raises(ParameterError, match="positive"):
         read_dwell_times(io.StringIO("0.5\n-1\n"))
+
+
+def test_bulk_formatting_prints_exactly_what_python_prints():
+    from polishpath.export.textfmt import format_csv, format_fixed
+
+    rng = np.random.default_rng(7)
+    tricky = np.concatenate([
+        rng.normal(size=4000), rng.uniform(-300, 300, 4000),
+        rng.normal(size=4000) * 10.0 ** rng.integers(-300, 300, 4000),  # every exponent, and outside 1e+-280
+        np.ldexp(rng.integers(1, 2**53, 2000).astype(float), rng.integers(-1074, 971, 2000)),  # subnormals too
+        10.0 ** np.arange(-300, 300), 10.0 ** np.arange(-300, 300) * (1 + 2**-52),  # powers of ten, neighbours
+        np.arange(1, 3000) / 1024.0, [(2.0**53 - 1) / 4, 0.5, 1e16, 1e17, 99999999999999999.0, 5e-324, 0.0, -0.0,
+                                      np.inf, -np.inf, np.nan, 0.1, 1e-5, 123456.789],  # a tie, zeros, non-finite
+    ])
+    tricky = np.concatenate([tricky, -tricky])
+    got = format_csv(np.zeros((len(tricky), 1), np.int64), tricky[:, None]).decode().splitlines()
+    assert got == ["0,%.17g" % x for x in tricky]
+    ints = rng.integers(-5, 10**12, (50, 3))
+    assert format_csv(ints, np.zeros((50, 0))).decode() == "".join("%d,%d,%d\n" % tuple(r) for r in ints)
+    for d in (0, 3, 4, 6, 9):
+        v = np.concatenate([rng.uniform(-300, 300, 3000), rng.normal(scale=10.0**-d, size=3000),
+                            np.round(rng.uniform(-10, 10, 3000), d) + 0.5 * 10.0**-d, [-0.0, -1e-12, 1e5]])
+        v = v.reshape(-1, 3)
+        want = "".join(" ".join(f"{np.round(x, d) + 0.0:.{d}f}" for x in row) + "\n" for row in v)
+        assert format_fixed(v, d).decode() == want
+    # huge values: the exact fallback; letters and words left out
+    assert format_fixed(np.array([[1e300, 2.0]]), 4, letters="XY").decode() == f"X{1e300:.4f} Y2.0000\n"
+    assert format_fixed(np.array([[1.0, 2.0]]), 4, letters="XY", present=np.array([[False, True]])) == b"Y2.0000\n"

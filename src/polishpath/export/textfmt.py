@@ -10,11 +10,14 @@ caller writes to the file in large chunks:
   integer ``rint(x * 10^d)``, exactly the digits ``"%.{d}f" % (np.round(x, d) + 0.0)``
   prints while ``|x| < 2^52 / 10^(d+1)`` (:func:`fixed_point_exact`; beyond,
   the callers fall back to Python's ``%``).
-* :func:`csv_rows` -- ``%d`` integer and ``%.17g`` float columns, the floats
-  through the C library's ``strfromd`` (C23, glibc >= 2.25), which is correctly
-  rounded like Python's ``%`` and prints the same text (checked in
-  tests/test_export.py). Where the C library has no ``strfromd``
-  (:data:`HAVE_STRFROMD` false) the callers use Python's ``%``.
+* :func:`csv_rows` -- ``%d`` integer and ``%.17g`` float columns. The 17
+  significant digits are correctly rounded from a double-double product of x
+  and a power of ten (~106 bits, an error far below the last digit); where the
+  product cannot tell the rounding (within 1e-6 of a tie) and outside
+  1e-280..1e280, the C library's ``strfromd`` (C23, glibc >= 2.25; correctly
+  rounded like Python's ``%``) prints the number. The same text as Python's
+  ``%`` (checked in tests/test_export.py). Where the C library has no
+  ``strfromd`` (:data:`HAVE_STRFROMD` false) the callers use Python's ``%``.
 
 Written by hand because no library formats numpy arrays to text in bulk:
 ``numpy.savetxt`` and ``np.char.mod`` call Python's ``%`` once per row or value
@@ -177,15 +180,149 @@ def _put_int(out, pos, n):  # pragma: no cover - numba
     return pos
 
 
+def _powers_of_ten() -> tuple[np.ndarray, np.ndarray]:
+    """10^k, k = -300..300, as double-double pairs (hi + lo, ~106 bits), from exact integers."""
+    from fractions import Fraction
+
+    hi, lo = np.empty(601), np.empty(601)
+    for i, k in enumerate(range(-300, 301)):
+        exact = Fraction(10) ** k
+        hi[i] = float(exact)  # correctly rounded
+        lo[i] = float(exact - Fraction(hi[i]))
+    return hi, lo
+
+
+_P10_HI, _P10_LO = _powers_of_ten()
+
+
 @numba.njit(cache=True)
-def csv_rows(ints, floats, out):  # pragma: no cover - numba
+def _two_prod(a, b):  # pragma: no cover - numba
+    """a * b = p + e exactly (Dekker's product; no fused multiply-add needed)."""
+    p = a * b
+    c = 134217729.0 * a
+    ah = c - (c - a)
+    al = a - ah
+    c = 134217729.0 * b
+    bh = c - (c - b)
+    bl = b - bh
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, e
+
+
+@numba.njit(cache=True)
+def _digits17(ax, e10, p_hi, p_lo):  # pragma: no cover - numba
+    """(D, e10, ok): ax = D x 10^(e10 - 16) rounded to 17 digits, D in [10^16, 10^17); ok False: too near a tie."""
+    for _ in range(4):
+        k = 16 - e10 + 300
+        s, err = _two_prod(ax, p_hi[k])
+        t = err + ax * p_lo[k]
+        yh = s + t
+        yl = t - (yh - s)
+        fh = np.floor(yh)
+        r = (yh - fh) + yl
+        fr = np.floor(r)
+        d = np.int64(fh) + np.int64(fr)
+        frac = r - fr
+        if d >= 100000000000000000:
+            e10 += 1
+            continue
+        if d < 10000000000000000:
+            e10 -= 1
+            continue
+        if abs(frac - 0.5) < 1e-6:  # the double-double product cannot tell: the C library decides
+            return d, e10, False
+        if frac > 0.5:
+            d += 1
+        if d == 100000000000000000:
+            d = 10000000000000000
+            e10 += 1
+        return d, e10, True
+    return 0, e10, False
+
+
+@numba.njit(cache=True)
+def _put_g17(out, pos, x, dig, p_hi, p_lo):  # pragma: no cover - numba
+    """``"%.17g" % x`` into out at pos; returns the new position.
+
+    Correctly rounded 17 significant digits from a double-double product
+    (|x| in [1e-280, 1e280]); near a rounding tie, and outside that range, the C
+    library's strfromd. Then C's %g layout: fixed point when -4 <= exponent < 17,
+    else d.ddde+XX; trailing zeros (and a bare point) removed.
+    """
+    ax = abs(x)
+    if not (ax >= 1e-280 and ax <= 1e280):
+        if x != x:
+            out[pos] = 110
+            out[pos + 1] = 97
+            out[pos + 2] = 110
+            return pos + 3
+        return pos + _strfromd_17g(out, pos, x)
+    d, e10, ok = _digits17(ax, np.int64(np.floor(np.log10(ax))), p_hi, p_lo)
+    if not ok:
+        return pos + _strfromd_17g(out, pos, x)
+    for i in range(16, -1, -1):
+        dig[i] = 48 + d % 10
+        d //= 10
+    last = 16  # the last nonzero digit
+    while last > 0 and dig[last] == 48:
+        last -= 1
+    if x < 0:
+        out[pos] = 45
+        pos += 1
+    if -4 <= e10 < 17:
+        if e10 >= 0:
+            for i in range(e10 + 1):
+                out[pos] = dig[i]
+                pos += 1
+            if last > e10:
+                out[pos] = 46
+                pos += 1
+                for i in range(e10 + 1, last + 1):
+                    out[pos] = dig[i]
+                    pos += 1
+        else:
+            out[pos] = 48
+            out[pos + 1] = 46
+            pos += 2
+            for i in range(-e10 - 1):
+                out[pos] = 48
+                pos += 1
+            for i in range(last + 1):
+                out[pos] = dig[i]
+                pos += 1
+    else:
+        out[pos] = dig[0]
+        pos += 1
+        if last > 0:
+            out[pos] = 46
+            pos += 1
+            for i in range(1, last + 1):
+                out[pos] = dig[i]
+                pos += 1
+        out[pos] = 101  # e
+        out[pos + 1] = 45 if e10 < 0 else 43
+        pos += 2
+        ex = abs(e10)
+        if ex >= 100:
+            out[pos] = 48 + ex // 100
+            pos += 1
+        out[pos] = 48 + (ex // 10) % 10
+        out[pos + 1] = 48 + ex % 10
+        pos += 2
+    return pos
+
+
+@numba.njit(cache=True)
+def csv_rows(ints, floats, out, p_hi, p_lo):  # pragma: no cover - numba
     """CSV rows ``%d,...,%.17g,...`` into ``out``; returns the bytes written.
 
     ``ints`` (m, a) int64, then ``floats`` (m, b) float64 per row (NaN as ``nan``,
-    like Python); ``out`` holds at least ``m * (21 a + 26 b + 1)`` bytes.
+    like Python); ``out`` holds at least ``m * (21 a + 26 b + 1)`` bytes;
+    ``p_hi, p_lo``: the powers of ten (``_P10_HI``, ``_P10_LO``).
     """
     m, a = ints.shape
     b = floats.shape[1]
+    dig = np.empty(20, np.uint8)
     pos = 0
     for r in range(m):
         for c in range(a):
@@ -198,13 +335,14 @@ def csv_rows(ints, floats, out):  # pragma: no cover - numba
                 out[pos] = 44
                 pos += 1
             x = floats[r, c]
-            if x != x:  # NaN: C may print "-nan", Python prints "nan"
-                out[pos] = 110
-                out[pos + 1] = 97
-                out[pos + 2] = 110
-                pos += 3
+            if x == 0.0:
+                if np.signbit(x):
+                    out[pos] = 45
+                    pos += 1
+                out[pos] = 48
+                pos += 1
             else:
-                pos += _strfromd_17g(out, pos, x)
+                pos = _put_g17(out, pos, x, dig, p_hi, p_lo)
         out[pos] = 10
         pos += 1
     return pos
@@ -264,7 +402,7 @@ def format_csv(ints: np.ndarray, floats: np.ndarray) -> bytes:
         return b""
     if HAVE_STRFROMD:
         out = np.empty(m * (21 * iv.shape[1] + CSV_FLOAT_MAX_CHARS * fv.shape[1] + 1), np.uint8)
-        n = csv_rows(iv, fv, out)
+        n = csv_rows(iv, fv, out, _P10_HI, _P10_LO)
         return out[:n].tobytes()
     fmt = ",".join(["%d"] * iv.shape[1] + ["%.17g"] * fv.shape[1]) + "\n"
     return ((fmt * m) % tuple(np.column_stack([iv.astype(object), fv.astype(object)]).ravel().tolist())).encode()
