@@ -259,21 +259,30 @@ def band_rms_nm(map_nm, dx_mm: float, band=PAPER_BAND_PER_MM, mask=None) -> floa
     float
         nm.
     """
+    z, w, _, (lo, hi) = _prepared(map_nm, dx_mm, band, mask)
+    return _band_rms(z, w, dx_mm, lo, hi)
+
+
+def _band_rms(z: np.ndarray, w: np.ndarray, dx_mm: float, lo: float, hi: float) -> float:
+    """:func:`band_rms_nm` of a prepared map (0 outside the window) and its window."""
     import scipy.fft as sfft
 
-    z, w, _, (lo, hi) = _prepared(map_nm, dx_mm, band, mask)
     ny, nx = z.shape
     Z = sfft.rfft2(z * w, workers=2)
     fx = sfft.rfftfreq(nx, d=dx_mm)
     fy = sfft.fftfreq(ny, d=dx_mm)
-    fr = np.hypot(fx[None, :], fy[:, None])
     # the half spectrum stands for both halves, except the columns without a twin (0 and Nyquist)
     mult = np.full(len(fx), 2.0)
     mult[0] = 1.0
     if nx % 2 == 0:
         mult[-1] = 1.0
-    inband = (fr >= lo) & (fr <= hi)
-    power = float(np.sum((np.abs(Z) ** 2 * mult[None, :])[inband]))
+    power = 0.0
+    for r0 in range(0, ny, _BLOCK_ROWS):  # in blocks of rows: no full-size frequency or mask arrays
+        r1 = min(ny, r0 + _BLOCK_ROWS)
+        fr2 = fx[None, :] ** 2 + fy[r0:r1, None] ** 2
+        inband = (fr2 >= lo * lo) & (fr2 <= hi * hi)
+        blk = Z[r0:r1]
+        power += float(np.sum(((blk.real ** 2 + blk.imag ** 2) * mult[None, :])[inband]))
     return float(np.sqrt(power / (ny * nx * np.sum(w * w))))
 
 
@@ -404,6 +413,12 @@ def lattice_peak_db(map_nm, dx_mm: float, spacing_mm: float, *, band=PAPER_BAND_
         resolved background around it (the map is too small or too coarse).
     """
     z, w, _, (lo, hi) = _prepared(map_nm, dx_mm, band, mask)
+    return _lattice_db(z, w, dx_mm, spacing_mm, lo, hi, n_harmonics)
+
+
+def _lattice_db(z: np.ndarray, w: np.ndarray, dx_mm: float, spacing_mm: float, lo: float, hi: float,
+                n_harmonics: int = 3) -> float:
+    """:func:`lattice_peak_db` of a prepared map and its window."""
     targets = lattice_frequencies(spacing_mm, n_harmonics)
     nyq = 0.5 / dx_mm
     use = [f for f in targets if lo <= f <= hi and f <= 0.9 * nyq]
@@ -567,7 +582,8 @@ def fair_metrics(residual_nm, dx_mm: float, spacing_mm: float, depth_nm: float, 
               "lattice_peak": "profile PSDs of rows and columns, max over 1/(2s), n/s (n=1..3) "
                               "of peak / local median, dB",
               "lattice_frequencies_per_mm": lattice_frequencies(spacing_mm).tolist(), "version": __version__}
-    return FairMetrics(residual_band_rms_nm=band_rms_nm(r, dx_mm, band, m),
-                       lattice_peak_db=lattice_peak_db(r, dx_mm, spacing_mm, band=band, mask=m),
+    z, w, _, _ = _prepared(r, dx_mm, band, m)  # one window for both spectra
+    return FairMetrics(residual_band_rms_nm=_band_rms(z, w, float(dx_mm), lo, hi),
+                       lattice_peak_db=_lattice_db(z, w, float(dx_mm), spacing_mm, lo, hi),
                        pvn=pvn(r, depth_nm, m), residual_rms_nm=float(np.sqrt(np.mean(v * v))),
                        residual_pv_nm=float(v.max() - v.min()), params=params)

@@ -283,7 +283,8 @@ def smooth_surface(height_nm: np.ndarray, dx_mm: float, mean_depth_nm: float, sm
     Z, H, (py, px) = _smoothing_spectrum(height_nm, dx_mm, smoothing.length_mm)
     gain = H * np.float32(-(mean_depth_nm / smoothing.depth_nm))
     np.exp(gain, out=gain)
-    return sfft.irfft2(Z * gain, s=(py, px), workers=2)[:ny, :nx].astype(np.float32)
+    out = sfft.irfft2(Z * gain, s=(py, px), workers=2, overwrite_x=True)[:ny, :nx]  # Z itself stays cached
+    return np.ascontiguousarray(out, dtype=np.float32)
 
 
 def _splat_matrix(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float):
@@ -413,7 +414,8 @@ def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: R
     acc *= (corr_y[:, None] * corr_x[None, :]).astype(np.float32)
     H = h * q
     full = _upsample_crop(acc, sy, sx, q, H, H + ny, H, H + nx)
-    return (full * (q * q * dxc * dxc)).astype(np.float32), basis, q
+    full *= np.float32(q * q * dxc * dxc)
+    return np.ascontiguousarray(full, dtype=np.float32), basis, q
 
 
 def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | DirectionalTIF | RotatingToolTIF, *,
@@ -521,7 +523,7 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
     mean_depth = float(np.median(sub[sub > thr])) if thr > 0 else 0.0
     before = np.asarray(workpiece.height_nm, dtype=np.float32)
     base = smooth_surface(before, dx, mean_depth, smoothing) if smoothing is not None else before
-    after = (base - removal).astype(np.float32)
+    after = np.subtract(base, removal, dtype=np.float32)
     t4 = time.perf_counter()
     tif_params = ({"kind": "directional", **tif.params} if isinstance(tif, DirectionalTIF)
                   else {"kind": tif.kind, **{k: v for k, v in tif.params.items()}})
@@ -538,7 +540,7 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
     }
     stats = {
         "total_time_s": float(np.sum(dwell_s)), "effective_time_s": float(np.sum(t)), "time_on_grid_s": float(total_density.sum() * dx * dx),
-        "time_off_grid_s": lost, "removed_volume_nm_mm2": float(removal.astype(np.float64).sum() * dx * dx),
+        "time_off_grid_s": lost, "removed_volume_nm_mm2": float(removal.sum(dtype=np.float64) * dx * dx),
         "expected_volume_nm_mm2": expected, "mean_depth_nm": mean_depth, "n_samples": int(len(t)),
         "n_direction_groups": len(groups), "rotating": rot_info, "motion": motion,
         "timings_s": {"sample": t1 - t0, "rasterize": t2 - t1, "convolve": t3 - t2, "smooth": t4 - t3,

@@ -217,7 +217,12 @@ class RotatingToolTIF:
         if hit is not None:
             _BASIS_CACHE.move_to_end(key)
             return hit
-        out = self._basis_for_weights(dx_mm, speeds, ws, s_lo, s_hi, tol, max_harmonic, n_radii)
+        from threadpoolctl import threadpool_limits
+
+        # dozens of tiny eigen-decompositions (n_speeds^2): BLAS threads only add their start-up and
+        # synchronisation (measured 70x slower than one thread on a busy 2-core machine)
+        with threadpool_limits(limits=1, user_api="blas"):
+            out = self._basis_for_weights(dx_mm, speeds, ws, s_lo, s_hi, tol, max_harmonic, n_radii)
         _BASIS_CACHE[key] = out
         while len(_BASIS_CACHE) > _BASIS_CACHE_SIZE:
             _BASIS_CACHE.popitem(last=False)
@@ -288,9 +293,13 @@ class RotatingToolTIF:
             full[inside] = vals
             return full.reshape(n, ov, n, ov).mean(axis=(1, 3))
 
+        e1 = np.exp(1j * THi)
+        e_m = {0: np.ones_like(e1)}  # e^{i m theta} by repeated multiplication, once per harmonic
+        for m in range(1, max((t[1] for t in kept), default=0) + 1):
+            e_m[m] = e_m[m - 1] * e1
         for _, m, u, v in kept:
             ur = np.interp(Ri, r, u.real) + 1j * np.interp(Ri, r, u.imag)
-            B = Pi * ur * np.exp(1j * m * THi)
+            B = Pi * ur * e_m[m]
             # kernel(x; s, phi) = Re[B(x) W], W = v(s) e^{-i m phi} = Re B Re W - Im B Im W
             kernels.append(pix(B.real))
             coefs.append((m, v, "re"))
