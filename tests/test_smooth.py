@@ -299,3 +299,43 @@ def test_interpolation_does_not_stall_at_a_cusp(integrator):
     assert float(chord) <= 1e-3 * (1 + 1e-6)
     assert float(through) < 1e-9
     assert int(n) > 1000
+
+
+def test_chord_error_bound_holds_on_every_step_of_a_run():
+    """The bound that spares the measurement (spans.chord_error_within) is never below the measured chord error."""
+    from polishpath.smooth.interpolate import _kernel_coeffs
+    from polishpath.smooth.spans import chord_error_within, span_bend_bounds
+
+    curve, _ = interpolate_nurbs(_walk(150, seed=11))
+    res = interpolate_constant_period(curve, 600.0, 4.0, 1e-3)
+    u, pts = res["params"], res["samples"]
+    breaks, coeffs, _ = _kernel_coeffs(curve)
+    bends, size = span_bend_bounds(breaks, coeffs)
+    assert size == pytest.approx(np.abs(coeffs[:, 0, :3]).max())
+    bound = np.array([chord_error_within(breaks, coeffs, bends, 0, a, b) for a, b in zip(u[:-1], u[1:])])
+    measured = chord_errors(curve, u, pts, n_check=15)
+    assert np.all(measured <= bound * (1 + 1e-9) + 1e-15)
+    # and it is tight enough to be useful: most steps of the walk are proven under the tolerance unmeasured
+    assert np.mean(bound <= 0.99 * 1e-3) > 0.8
+    # the span bound is the largest |C''| over the span (checked against dense sampling)
+    uu = np.linspace(curve.knots[0], curve.knots[-1], 20001)[:-1]
+    d2 = np.linalg.norm(evaluate(curve, uu, 2)[2], axis=1)
+    span = np.clip(np.searchsorted(breaks, uu, side="right") - 1, 0, len(bends) - 1)
+    assert np.all(d2 <= bends[span] * (1 + 1e-9) + 1e-12)
+
+
+def test_samples_near_the_boundary_are_all_found():
+    """The anchored search (boundary._near_boundary) finds the same points as querying every one."""
+    from scipy.spatial import cKDTree
+
+    from polishpath.smooth.boundary import _near_boundary
+
+    rng = np.random.default_rng(3)
+    steps = rng.normal(scale=0.05, size=(20000, 3))
+    pts = np.cumsum(steps, axis=0)
+    tree = cKDTree(rng.uniform(pts.min(0), pts.max(0), size=(300, 3)))
+    for limit in (0.1, 0.7, 3.0):
+        d, _ = tree.query(pts)
+        want = np.flatnonzero(d <= limit)
+        for stride in (1, 7, 64):
+            assert np.array_equal(_near_boundary(pts, tree, limit, stride=stride), want)

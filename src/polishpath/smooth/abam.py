@@ -53,7 +53,8 @@ import math
 import numba
 import numpy as np
 
-from .spans import DIM, chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
+from .spans import (DIM, checked_deviation, chord_step, grow, nudge, safe_tolerance, span_bend_bounds, span_derivs,
+                    span_of, span_point, step_feed)
 
 __all__ = ["abam_kernel", "adams_weights", "GUARD", "CHORD_GUARD"]
 
@@ -112,6 +113,8 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
     any safeguard, ``fallbacks`` the number of safeguard steps.
     """
     d = DIM
+    bends, size = span_bend_bounds(breaks, coeffs)  # proves most steps under the tolerance unmeasured
+    safe = safe_tolerance(tol, size)
     cap = 1024
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
@@ -225,7 +228,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
                 un, _ = chord_step(breaks, coeffs, s, u, u1, pa, ln, ln / sp, pb)
                 restart = True
             last = un >= u1
-            err = chord_deviation(breaks, coeffs, s, u, un, pa, pb, w0)
+            err = checked_deviation(breaks, coeffs, bends, safe, s, u, un, pa, pb, w0)
             if err <= tol:
                 break
             # shorten: the chord error grows with the square of the step

@@ -16,6 +16,11 @@ integrator is only its own rule for the next parameter:
   and the safeguard of the Adams integrator;
 * :func:`chord_deviation` — the measured chord error of a step, which every
   integrator holds under the tolerance by shortening the step;
+* :func:`span_bend_bounds` / :func:`chord_error_within` — a bound of a step's
+  chord error from the largest ``|C''|`` of its spans, which spares the three
+  curve evaluations of :func:`chord_deviation` where it already proves the step
+  under the tolerance (most steps: only the tight turns need the measurement);
+  the step taken, and so every sample, is the same as with the measurement;
 * :func:`nudge` — a tiny step over a point where the curve has no speed;
 * :func:`chord_errors_kernel` — the chord error of every step of a finished run
   (the independent check the stats report);
@@ -41,7 +46,8 @@ import numba
 import numpy as np
 
 __all__ = ["DIM", "span_point", "span_derivs", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge",
-           "chord_errors_kernel", "grow"]
+           "chord_errors_kernel", "grow", "span_bend_bounds", "chord_error_within", "checked_deviation",
+           "safe_tolerance"]
 
 
 DIM = 3
@@ -233,6 +239,114 @@ def chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch):  # pragma: no 
             r += (pa[j] + t * (pb[j] - pa[j]) - pm[j]) ** 2
         worst = max(worst, math.sqrt(r))
     return worst
+
+
+@numba.njit(cache=True)
+def span_bend_bounds(breaks, coeffs):  # pragma: no cover - numba
+    """Largest ``|C''(u)|`` over each span, (S,) mm per unit parameter squared, and the curve's size, mm.
+
+    On a span ``C(t) = sum_k c_k t^k`` with ``t = (u - b_s) / h``, so
+    ``C''(u) = sum_k k (k - 1) c_k t^(k-2) / h^2``: for a cubic that is linear in
+    ``t`` and its norm (convex) is largest at an end of the span; for higher
+    degrees the triangle inequality bounds it. The size (largest coordinate)
+    sets the margin left for rounding in :func:`chord_error_within`.
+    """
+    ns = coeffs.shape[0]
+    p = coeffs.shape[1] - 1
+    out = np.zeros(ns)
+    size = 0.0
+    for s in range(ns):
+        h = breaks[s + 1] - breaks[s]
+        for j in range(DIM):
+            size = max(size, abs(coeffs[s, 0, j]))
+        if p < 2 or h <= 0.0:
+            continue
+        if p <= 3:
+            a0 = 0.0
+            a1 = 0.0
+            for j in range(DIM):
+                c2 = 2.0 * coeffs[s, 2, j]
+                c3 = 6.0 * coeffs[s, 3, j] if p == 3 else 0.0
+                a0 += c2 * c2
+                a1 += (c2 + c3) * (c2 + c3)
+            m = math.sqrt(max(a0, a1))
+        else:
+            m = 0.0
+            for k in range(2, p + 1):
+                a = 0.0
+                for j in range(DIM):
+                    a += coeffs[s, k, j] ** 2
+                m += k * (k - 1) * math.sqrt(a)
+        out[s] = m / (h * h)
+    return out, size
+
+
+@numba.njit(cache=True)
+def _bend_at(breaks, coeffs, s, u):  # pragma: no cover - numba
+    """``|C''(u)|`` on span ``s`` of a curve of degree <= 3 (linear in t there), mm per unit parameter squared."""
+    h = breaks[s + 1] - breaks[s]
+    t = (u - breaks[s]) / h
+    p = coeffs.shape[1] - 1
+    a = 0.0
+    for j in range(DIM):
+        c = 2.0 * coeffs[s, 2, j] + (6.0 * coeffs[s, 3, j] * t if p == 3 else 0.0)
+        a += c * c
+    return math.sqrt(a) / (h * h)
+
+
+@numba.njit(cache=True)
+def chord_error_within(breaks, coeffs, bends, s0, ua, ub):  # pragma: no cover - numba
+    """Upper bound of the distance between the curve on ``[ua, ub]`` and its chord, mm.
+
+    The linear interpolant's error ``|C(u) - L(u)| <= (u - ua)(ub - u) / 2 max|C''|``
+    (the Peano kernel of linear interpolation is one-signed, so it holds for a
+    vector-valued C), at most ``(ub - ua)^2 / 8 max|C''|``; ``L(u)`` lies on the
+    chord, so the distance to the chord is no larger. ``max|C''|`` is over the
+    part of each span the step covers: for a cubic (``C''`` linear in the span,
+    its norm convex) the larger of the two ends, else the span's bound
+    ``bends`` (:func:`span_bend_bounds`); the curve is C2 across simple knots,
+    and a step never crosses a lift between pieces.
+    """
+    ns = breaks.shape[0] - 1
+    p = coeffs.shape[1] - 1
+    s = span_of(breaks, s0, ua)
+    m = 0.0
+    a = ua
+    while True:
+        b = ub if (s >= ns - 1 or ub <= breaks[s + 1]) else breaks[s + 1]
+        if p < 2:
+            pass
+        elif p <= 3:
+            m = max(m, _bend_at(breaks, coeffs, s, a), _bend_at(breaks, coeffs, s, b))
+        else:
+            m = max(m, bends[s])
+        if b >= ub:
+            break
+        s += 1
+        a = b
+    du = ub - ua
+    return 0.125 * du * du * m
+
+
+@numba.njit(cache=True)
+def checked_deviation(breaks, coeffs, bends, safe, s0, ua, ub, pa, pb, scratch):  # pragma: no cover - numba
+    """The step's chord error as the kernels compare it with the tolerance, mm.
+
+    The bound of :func:`chord_error_within` when it is at most ``safe`` (the
+    tolerance less a rounding margin, so the measured error would be under the
+    tolerance too and the kernel accepts the step either way), else the
+    measured :func:`chord_deviation`.
+    """
+    b = chord_error_within(breaks, coeffs, bends, s0, ua, ub)
+    if b <= safe:
+        return b
+    return chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch)
+
+
+@numba.njit(cache=True)
+def safe_tolerance(tol, size):  # pragma: no cover - numba
+    """The tolerance less a margin for the rounding of the measured chord error (1e-9 of the curve's size, far above the 1e-15 rounding)."""
+    return 0.99 * tol - 1e-9 * max(size, 1.0)
 
 
 @numba.njit(cache=True)

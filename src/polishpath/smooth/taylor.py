@@ -22,7 +22,8 @@ import math
 import numba
 import numpy as np
 
-from .spans import DIM, chord_deviation, chord_step, grow, nudge, span_derivs, span_of, span_point, step_feed
+from .spans import (DIM, checked_deviation, chord_step, grow, nudge, safe_tolerance, span_bend_bounds, span_derivs,
+                    span_of, span_point, step_feed)
 
 __all__ = ["taylor_kernel"]
 
@@ -63,6 +64,8 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
         Always 0 (the corrector is this integrator's own step).
     """
     d = DIM
+    bends, size = span_bend_bounds(breaks, coeffs)  # proves most steps under the tolerance unmeasured
+    safe = safe_tolerance(tol, size)
     cap = 1024
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
@@ -119,7 +122,7 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
             if pred > pred_max:
                 pred_max = pred
             last = un >= u1
-            err = chord_deviation(breaks, coeffs, s, u, un, pa, pb, pm)
+            err = checked_deviation(breaks, coeffs, bends, safe, s, u, un, pa, pb, pm)
             if err <= tol:
                 break
             # shorten: the chord error grows with the square of the step
