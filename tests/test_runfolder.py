@@ -130,3 +130,21 @@ def test_broken_folders_are_input_errors(saved, tmp_path, breakage, message):
         (d / "job.toml").write_text("[job\n")
     with pytest.raises(InputError, match=message):
         read_run(d)
+
+
+def test_run_npz_deflates_only_what_shrinks(tmp_path):
+    """write_npz: compressible arrays deflated, float noise stored; numpy.load reads every array back exactly."""
+    import zipfile
+
+    from polishpath.runfolder import write_npz
+
+    rng = np.random.default_rng(0)
+    arrays = {"noise": rng.normal(size=(100_000, 3)), "flat": np.full(200_000, 600.0), "ints": np.arange(10, dtype=np.int32),
+              "scalar": np.float64(0.5), "empty": np.zeros(0)}
+    with open(tmp_path / "a.npz", "wb") as fh:
+        write_npz(fh, arrays)
+    kinds = {i.filename: i.compress_type for i in zipfile.ZipFile(tmp_path / "a.npz").infolist()}
+    assert kinds["noise.npy"] == zipfile.ZIP_STORED and kinds["flat.npy"] == zipfile.ZIP_DEFLATED
+    with np.load(tmp_path / "a.npz", allow_pickle=False) as z:
+        for k, v in arrays.items():
+            assert z[k].dtype == np.asarray(v).dtype and np.array_equal(z[k], v)

@@ -159,13 +159,47 @@ def write_run(
     arrays.update(extra_arrays or {})
     written = {"arrays": out / ARRAYS_FILE, "summary": out / SUMMARY_FILE, "job": out / JOB_FILE}
     with atomic_open(written["arrays"], "wb") as fh:
-        np.savez_compressed(fh, **arrays)
+        write_npz(fh, arrays)
     with atomic_open(written["summary"], "w") as fh:
         json.dump(jsonable({SCHEMA_KEY: SCHEMA_VERSION, **summary}), fh, indent=2, sort_keys=False, allow_nan=False)
         fh.write("\n")
     with atomic_open(written["job"], "w") as fh:
         fh.write(job_toml(config))
     return written
+
+
+#: bytes of an array probed to decide whether compressing it pays (:func:`write_npz`)
+COMPRESS_PROBE_BYTES = 1 << 18
+#: compress an array when deflate (level 1) shrinks the probe below this share of its size
+COMPRESS_WORTH = 0.6
+
+
+def write_npz(fh, arrays: dict[str, Any]) -> None:
+    """Write ``arrays`` as an ``.npz`` (a zip of ``.npy`` files, read by :func:`numpy.load`) into ``fh``.
+
+    Each array is deflated (zlib level 1, about 40-90 MB/s here) only where that
+    pays: when a probe of its first :data:`COMPRESS_PROBE_BYTES` shrinks below
+    :data:`COMPRESS_WORTH` of its size (the feeds, mostly constant, shrink
+    3x), else it is stored as it is (the machine samples and their parameters,
+    float noise in the low bits, shrink only to 0.6-0.7 and cost more time to
+    deflate than to write: measured on the 10^5-point disk, 2.9 s deflating
+    against 0.5 s writing them). ``numpy.load`` reads both kinds of entry.
+    """
+    import zipfile
+    import zlib
+
+    with zipfile.ZipFile(fh, "w", allowZip64=True) as zf:
+        for name, value in arrays.items():
+            a = np.asanyarray(value)
+            raw = a.tobytes()[:COMPRESS_PROBE_BYTES] if a.nbytes <= COMPRESS_PROBE_BYTES else \
+                np.ascontiguousarray(a).reshape(-1).view(np.uint8)[:COMPRESS_PROBE_BYTES].tobytes()
+            small = len(raw) == 0 or len(zlib.compress(raw, 1)) < COMPRESS_WORTH * len(raw)
+            info = zipfile.ZipInfo(name + ".npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED if small else zipfile.ZIP_STORED
+            if small:
+                info._compresslevel = 1  # the level field of ZipInfo (Python 3.11+, public as compress_level in 3.13)
+            with zf.open(info, "w", force_zip64=a.nbytes > 2**31 - 2**20) as out:
+                np.lib.format.write_array(out, a, allow_pickle=False)
 
 
 def job_toml(config: dict[str, Any]) -> str:
