@@ -132,6 +132,10 @@ def run_job(n_points: float, work: Path, extra: list[str]) -> dict:
         raise SystemExit(f"polishpath plan exited {proc.returncode} for {n_points:.0e} points")
     summary = json.loads((out / "summary.json").read_text())
     writers = json.loads(rec.read_text())
+    for w in writers:  # the job writes into a staging folder beside out (fileio.staged_folder), renamed at the end
+        rel = Path(w["file"]).relative_to(os.path.abspath(work))
+        if rel.parts[0].startswith(f".{out.name}.staging"):
+            w["file"] = str(out / Path(*rel.parts[1:]))
     return {"n_target": n_points, "radius": radius, "wall": wall, "load": load, "out": out, "summary": summary,
             "writers": writers, "rss_gb": usage.ru_maxrss * 1024 / 1e9}
 

@@ -148,3 +148,18 @@ def test_run_npz_deflates_only_what_shrinks(tmp_path):
     with np.load(tmp_path / "a.npz", allow_pickle=False) as z:
         for k, v in arrays.items():
             assert z[k].dtype == np.asarray(v).dtype and np.array_equal(z[k], v)
+
+
+def test_run_arrays_are_read_on_first_use_and_large_stored_ones_mapped(saved, monkeypatch):
+    """read_run reads run.npz's directory only; a large stored array is mapped (copy-on-write), equal to the job's."""
+    from polishpath.runfolder import NpzArrays
+
+    job, out = saved
+    monkeypatch.setattr(NpzArrays, "MAP_BYTES", 1024)
+    run = read_run(out)
+    assert isinstance(run.arrays, NpzArrays) and run.arrays._cache == {}
+    smp = run.arrays["samples"]
+    assert isinstance(smp.base, np.memmap) and np.array_equal(smp, job.tool_path.samples)
+    smp[0, 0] += 1.0  # the caller's copy only
+    assert np.array_equal(read_run(out).arrays["samples"], job.tool_path.samples)
+    assert list(run.arrays._cache) == ["samples"] and "xyz" in run.arrays and "nothing" not in run.arrays

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -215,6 +216,80 @@ def job_toml(config: dict[str, Any]) -> str:
     return head + tomli_w.dumps(doc)
 
 
+class NpzArrays(Mapping):
+    """The arrays of a ``run.npz``, read on first use (a read-only mapping name -> ndarray).
+
+    Opening reads the zip's directory only (and refuses a broken file with an
+    :class:`InputError`); an array is read when first asked for and kept. A
+    large array stored without compression (:func:`write_npz`) is mapped from
+    the file instead of read (copy-on-write: the caller may change its copy),
+    so a report that draws 20,000 of 10^7 machine samples reads only their
+    pages. A broken entry, met when read, is an :class:`InputError` too.
+    """
+
+    #: stored entries at least this large are memory-mapped rather than read, bytes
+    MAP_BYTES = 16 * 2**20
+
+    def __init__(self, path: Path) -> None:
+        import zipfile
+
+        self.path = Path(path)
+        self._cache: dict[str, np.ndarray] = {}
+        try:
+            with zipfile.ZipFile(self.path) as zf:
+                self._entries = {i.filename[:-4]: i for i in zf.infolist() if i.filename.endswith(".npy")}
+        except Exception as e:  # zipfile.BadZipFile / OSError / ValueError: all mean a broken file
+            raise self._broken(e) from e
+
+    def _broken(self, e: Exception) -> InputError:
+        return InputError(f"{self.path} cannot be read ({e}).",
+                          "The run may have been interrupted; run `polishpath plan` again.")
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name in self._cache:
+            return self._cache[name]
+        info = self._entries[name]  # KeyError for a missing key, as a dict
+        try:
+            a = self._read(info)
+        except Exception as e:  # a truncated or corrupt entry
+            raise self._broken(e) from e
+        self._cache[name] = a
+        return a
+
+    def _read(self, info) -> np.ndarray:
+        import zipfile
+
+        with zipfile.ZipFile(self.path) as zf:
+            if info.compress_type == zipfile.ZIP_STORED and info.file_size >= self.MAP_BYTES:
+                with open(self.path, "rb") as fh:  # the entry's bytes: after its local header (30 bytes + name + extra)
+                    fh.seek(info.header_offset)
+                    head = fh.read(30)
+                    if head[:4] != b"PK\x03\x04":
+                        raise ValueError(f"bad local header of {info.filename}")
+                    start = info.header_offset + 30 + int.from_bytes(head[26:28], "little") + \
+                        int.from_bytes(head[28:30], "little")
+                    fh.seek(start)
+                    fmt = np.lib.format
+                    version = fmt.read_magic(fh)
+                    header = {(1, 0): fmt.read_array_header_1_0, (2, 0): fmt.read_array_header_2_0}.get(version)
+                    if header is not None:
+                        shape, fortran, dtype = header(fh)
+                        if not dtype.hasobject:
+                            return np.asarray(np.memmap(self.path, dtype=dtype, mode="c", offset=fh.tell(),
+                                                        shape=shape, order="F" if fortran else "C"))
+            with zf.open(info) as fh:
+                return np.lib.format.read_array(fh, allow_pickle=False)
+
+    def __iter__(self):
+        return iter(self._entries)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._entries
+
+
 @dataclass(frozen=True)
 class RunData:
     """A run folder read back (:func:`read_run`).
@@ -225,8 +300,9 @@ class RunData:
         The run folder.
     summary : dict
         Contents of ``summary.json``.
-    arrays : dict of str -> ndarray
-        Contents of ``run.npz`` (keys in :data:`ARRAY_KEYS`; any may be missing in an old folder).
+    arrays : mapping of str -> ndarray
+        Contents of ``run.npz`` (keys in :data:`ARRAY_KEYS`; any may be missing in an old folder),
+        each read on first use (:class:`NpzArrays`).
     config : dict
         The ``[job]`` table of ``job.toml`` (empty when the folder has none).
     schema : int
@@ -243,7 +319,7 @@ class RunData:
 
     folder: Path
     summary: dict[str, Any]
-    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    arrays: Mapping[str, np.ndarray] = field(default_factory=dict)
     config: dict[str, Any] = field(default_factory=dict)
     schema: int = SCHEMA_VERSION
     simulation: dict[str, Any] = field(default_factory=dict)
@@ -411,12 +487,7 @@ def read_run(folder: str | Path) -> RunData:
     if not npz.is_file():
         raise InputError(f"{d} has no {ARRAYS_FILE} (the arrays of the run).",
                          "Run `polishpath plan` again with this version of polishpath to write it.")
-    try:
-        with np.load(npz, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except Exception as e:  # zipfile / ValueError / OSError: all mean a broken file
-        raise InputError(f"{npz} cannot be read ({e}).",
-                         "The run may have been interrupted; run `polishpath plan` again.") from e
+    arrays = NpzArrays(npz)
     config: dict[str, Any] = {}
     if (d / JOB_FILE).is_file():
         table = read_toml(d / JOB_FILE).get("job", {})

@@ -24,7 +24,7 @@ from ..pathops import DIRECTION_NAMES, direction_counts, piece_index, step_lengt
 from .rundata import RunData, angle_error_deg, area_distortion, cluster_mesh, decimate_indices
 
 #: display limits (the files keep every point)
-MAX_PATH_POINTS_PNG = 100_000
+MAX_PATH_POINTS_PNG = 20_000
 MAX_PATH_POINTS_PNG_3D = 20_000
 MAX_FACES_PNG_3D = 6_000
 MAX_FACES_PNG_2D = 400_000
