@@ -49,3 +49,41 @@ def test_a_failing_stage_stops_its_display_and_records_no_time(capsys, monkeypat
         progress.set_enabled(None)
     assert "f" not in timings and progress._active == []
     assert "✓ failing" not in capsys.readouterr().err
+
+
+def test_every_stage_of_a_job_shows_what_it_counted(capsys, monkeypatch, tmp_path):
+    """On a terminal each stage ends with a line holding its count: dwell points, samples, outputs, figures."""
+    import re
+
+    import polishpath
+
+    monkeypatch.setattr(progress, "SHOW_AFTER_S", 0.0)
+    progress.set_enabled(True)
+    try:
+        job = polishpath.run(surface="hemisphere:R=10,triangles=600", spacing=1.5, seed=3)
+        job.save(tmp_path / "out")
+    finally:
+        progress.set_enabled(None)
+    err = capsys.readouterr().err
+    n, m = job.planar.n_points, len(job.tool_path.samples)
+    ends = [line for line in err.splitlines() if "✓" in line]
+
+    class Done(dict):
+        def __missing__(self, label):  # the stage's closing line: "✓ label (seconds, count)"
+            return next(line for line in ends if line.split("✓", 1)[1].strip().startswith(label + " ("))
+
+    done = Done()
+    assert re.search(rf"{n:,} dwell points in plan \d", done["planning pseudorandom path"])
+    assert f"{m:,} samples" in done["smoothing (NURBS) and interpolation"]
+    assert f"{n:,} dwell points" in done["path metrics"]
+    assert f"5 of 5 outputs of {m:,} samples" in done["writing machine files"]
+    assert re.search(r"(\d+) of \1 figures", done["writing report"])
+
+
+def test_a_piped_job_prints_no_progress(capsys, tmp_path):
+    """stderr is not a terminal under pytest: the job's stages print nothing at all."""
+    import polishpath
+
+    progress.set_enabled(None)
+    polishpath.run(surface="hemisphere:R=10,triangles=600", spacing=1.5, seed=3).save(tmp_path / "out", report=False)
+    assert capsys.readouterr().err == ""

@@ -167,27 +167,39 @@ class Job:
                 self.program.clear()  # the record of what the post wrote fills as the files are written (like timings)
                 self.program.update(info)
                 written["program"] = out / Path(self.program["path"]).relative_to(target)
+                n_samples = len(self.tool_path.samples)
+
+                def done(k: int, name: str) -> None:  # name: what was just written (for a reader of the code)
+                    progress.update(k, 5, f"outputs of {n_samples:,} samples")
+
+                done(1, self.program["file"])
                 if self.program["file"] != "path.csv":
                     export.write_path_csv(self.tool_path, out / "path.csv")
                 written["path_csv"] = out / "path.csv"
+                done(2, "path.csv")
                 if self.program["file"] != "toolpath.xyz":
                     export.write_xyz(self.tool_path, out / "toolpath.xyz")
                 written["toolpath_xyz"] = out / "toolpath.xyz"
+                done(3, "toolpath.xyz")
                 if self.program["file"] == "toolpath.nc":
                     written["gcode"] = out / "toolpath.nc"
                 with atomic_open(out / "flat.obj", "w") as fh:
                     save_obj(self.flattening, fh)
                 written["flat_obj"] = out / "flat.obj"
+                done(4, "flat.obj")
                 written.update(write_run(out, surface=self.surface, flattening=self.flattening, region=self.region,
                                          planar=self.planar, surface_path=self.surface_path,
                                          tool_path=self.tool_path, summary=self.summary(),
                                          config=self._job_config_with_seed().to_dict(),
                                          extra_arrays=self._figuring_arrays()))
+                done(5, "run.npz, summary.json, job.toml")
             if with_report:
                 from .report import write_report
+                from .report.figures import FIGURES
 
                 with progress.stage("writing report", self.timings, "report"):
                     written.update(write_report(out, shown_as=target))
+                    progress.update(len(FIGURES), len(FIGURES), "figures")  # it counts those begun
         return {k: target / Path(v).relative_to(out) for k, v in written.items()}
 
     def _figuring_arrays(self) -> dict[str, Any]:
@@ -422,6 +434,7 @@ def _honour_surface_spacing(
         planar = planner(h)
         mapped = map_to_surface(flat, planar, surface_spacing=spacing)
         tries += 1
+        progress.update(planar.n_points, None, f"dwell points in plan {tries}")
         m = _grid_step_max(planar, mapped)
         fits = m <= limit * (1 + 1e-9)
         if fits and (best is None or h > best[2]):

@@ -35,6 +35,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from .. import progress
 from ..types import ToolPath
 from .machine import MachineProfile
 
@@ -240,6 +241,7 @@ def schedule_feeds(tool_path: ToolPath, machine: MachineProfile) -> tuple[ToolPa
         new_t[a + 1 : b] = np.where(nz, ln / np.maximum(full, 1e-300), 0.0)
         lim = sig < P * (1 - _REL)
         n_seg += int(nz.sum())
+        progress.update(int(b), len(s), "samples scheduled")
         n_lim += int(lim.sum())
         n_cap += int(np.sum(lim & (cap < P * (1 - _REL)) & (sig >= cap * (1 - _REL))))
     wish = tool_path.dwell_times

@@ -368,6 +368,7 @@ def smooth(
                  dwell_time_error_rms=float(np.sqrt(np.mean(derr**2))))
     stats.update(curve_deviation(curve, dwell_params, xyz, surface_path.normals, pieces, surface, deviation_samples))
     all_samples = np.concatenate(samples)
+    progress.update(len(all_samples), None, "samples; checking the curve and the boundary")
     if surface is not None:
         steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
         steps[pieces[1:-1] - 1] = 0.0  # the lifts between pieces are not on the curve
