@@ -100,6 +100,11 @@ def _piece_curve(pts: np.ndarray, degree: int, parametrization: str) -> tuple[Nu
     return bezier_cubic_through(pts)
 
 
+def _joined(parts: list[np.ndarray]) -> np.ndarray:
+    """The pieces' arrays one after the other; a single piece's array itself (no copy of millions of samples)."""
+    return np.ascontiguousarray(parts[0]) if len(parts) == 1 else np.concatenate(parts)
+
+
 def piece_curves(curve: NurbsCurve, piece_params: np.ndarray) -> list[NurbsCurve]:
     """Split a joined curve back into its pieces (each clamped, parameter kept).
 
@@ -367,7 +372,7 @@ def smooth(
     stats.update(dwell_time_error_p99=float(np.percentile(derr, 99)),
                  dwell_time_error_rms=float(np.sqrt(np.mean(derr**2))))
     stats.update(curve_deviation(curve, dwell_params, xyz, surface_path.normals, pieces, surface, deviation_samples))
-    all_samples = np.concatenate(samples)
+    all_samples = _joined(samples)
     progress.update(len(all_samples), None, "samples; checking the curve and the boundary")
     if surface is not None:
         steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
@@ -397,6 +402,6 @@ def smooth(
         seed=surface_path.provenance.seed,
     )
     return ToolPath(curve=curve, dwell_params=dwell_params, samples=all_samples,
-                    sample_params=np.concatenate(sparams), feed_mm_min=np.concatenate(feeds),
+                    sample_params=_joined(sparams), feed_mm_min=_joined(feeds),
                     period_ms=float(period_ms), surface_path=surface_path, provenance=prov, stats=stats,
                     dwell_times=times)

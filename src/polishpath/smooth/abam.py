@@ -105,7 +105,7 @@ def _inv_speed(breaks, coeffs, s, u, u1, w0, c1, w2):  # pragma: no cover - numb
 
 
 @numba.njit(cache=True)
-def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol):  # pragma: no cover
+def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol, cap=1024):  # pragma: no cover
     """Constant-period samples of ``[u0, u1]`` by the Adams-Bashforth-Moulton integrator.
 
     Same arguments and returns as :func:`.taylor.taylor_kernel`; ``predictor_max``
@@ -115,7 +115,7 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
     d = DIM
     bends, size = span_bend_bounds(breaks, coeffs)  # proves most steps under the tolerance unmeasured
     safe = safe_tolerance(tol, size)
-    cap = 1024
+    cap = max(int(cap), 16)
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
     out_v = np.empty(cap)

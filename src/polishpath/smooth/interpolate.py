@@ -245,7 +245,10 @@ def interpolate_constant_period(
         rb = np.array([u0, u1])
         rfeed = np.array([feed_mm_min / 60.0])
     t_start = time.perf_counter()
-    pu, pp, pv, pred_max, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm)
+    # room for the expected samples (the time wanted over the period; the curvature limit adds some)
+    expect = (float(dt.sum()) if dwell_times is not None else float(arc_lengths(curve, [u0], [u1])[0]) / rfeed[0]) / T
+    cap = int(min(max(1.05 * expect, 0.0), 4e9)) + 1024
+    pu, pp, pv, pred_max, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm, cap)
     passes = 1
     progress.update(len(pu), None, "samples in schedule pass 1")
     if dwell_times is not None:
@@ -266,7 +269,7 @@ def interpolate_constant_period(
             if np.allclose(new_feed, rfeed, rtol=1e-3):
                 break
             rfeed = new_feed
-            pu, pp, pv, pm, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm)
+            pu, pp, pv, pm, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm, int(1.02 * len(pu)) + 1024)
             pred_max = max(pred_max, pm)
             passes += 1
             progress.update(len(pu), None, f"samples in schedule pass {passes}")

@@ -29,7 +29,7 @@ __all__ = ["taylor_kernel"]
 
 
 @numba.njit(cache=True)
-def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol):  # pragma: no cover
+def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol, cap=1024):  # pragma: no cover
     """Constant-period samples of ``[u0, u1]`` by the Taylor predictor and the chord corrector.
 
     Parameters
@@ -50,6 +50,10 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
         Interpolation period T, s.
     tol : float
         Chord tolerance, mm.
+    cap : int
+        Samples the output buffers first hold (doubled when full): the expected
+        count, so that a run of 10^8 samples neither grows its buffers many
+        times nor keeps up to twice the room it needs.
 
     Returns
     -------
@@ -66,7 +70,7 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
     d = DIM
     bends, size = span_bend_bounds(breaks, coeffs)  # proves most steps under the tolerance unmeasured
     safe = safe_tolerance(tol, size)
-    cap = 1024
+    cap = max(int(cap), 16)
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
     out_v = np.empty(cap)
