@@ -137,7 +137,7 @@ def run_job(n_points: float, work: Path, extra: list[str]) -> dict:
         if rel.parts[0].startswith(f".{out.name}.staging"):
             w["file"] = str(out / Path(*rel.parts[1:]))
     return {"n_target": n_points, "radius": radius, "wall": wall, "load": load, "out": out, "summary": summary,
-            "writers": writers, "rss_gb": usage.ru_maxrss * 1024 / 1e9}
+            "writers": writers, "rss_gb": usage.ru_maxrss * 1024 / 1e9, "cpu": usage.ru_utime + usage.ru_stime}
 
 
 def show(r: dict) -> list[str]:
@@ -148,8 +148,8 @@ def show(r: dict) -> list[str]:
     tim = s["timings_s"]
     print(f"\n== {n:,} dwell points (disk radius {r['radius']:.0f} mm, spacing {SPACING_MM} mm, "
           f"load average {r['load']:.1f} on {os.cpu_count()} cores) ==")
-    print(f"  whole job {r['wall']:.1f} s (child wall time, Python start-up and imports included); "
-          f"peak RSS {r['rss_gb']:.2f} GB")
+    print(f"  whole job {r['wall']:.1f} s (child wall time, Python start-up and imports included), "
+          f"{r['cpu']:.1f} s of CPU (what a loaded machine does not inflate as much); peak RSS {r['rss_gb']:.2f} GB")
     print("  stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in tim.items()))
     sm = tim.get("smooth", float("nan"))
     ip = float(s["smooth"]["stats"].get("interpolation_s", float("nan")))
