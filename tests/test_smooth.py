@@ -339,3 +339,32 @@ def test_samples_near_the_boundary_are_all_found():
         want = np.flatnonzero(d <= limit)
         for stride in (1, 7, 64):
             assert np.array_equal(_near_boundary(pts, tree, limit, stride=stride), want)
+
+
+def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypatch):
+    """Only one pass's samples are held: when the last pass is worse, the best one's feeds are run again, same bytes."""
+    import polishpath.smooth.interpolate as interp
+
+    pts = _walk(80, seed=12)
+    curve, u = interpolate_nurbs(pts)
+    times = np.full(len(pts), 0.03)
+    real = interp.INTEGRATORS["taylor"]
+    calls = []
+
+    def spoiled(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap=1024):
+        calls.append(np.array(rfeed))
+        if len(calls) == 3:  # the third schedule pass goes badly wrong
+            rfeed = rfeed * 3.0
+        return real(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap)
+
+    monkeypatch.setitem(interp.INTEGRATORS, "taylor", spoiled)
+    res = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
+                                      max_feed_mm_min=6000.0, schedule_passes=3)
+    assert len(calls) == 4 and res["stats"]["schedule_passes"] == 3
+    best = 1 if np.array_equal(calls[3], calls[1]) else 0
+    assert np.array_equal(calls[3], calls[best])  # the best pass's own feeds, run again
+    monkeypatch.setitem(interp.INTEGRATORS, "taylor", real)
+    breaks, coeffs, _ = interp._kernel_coeffs(curve)
+    u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
+    want = real(breaks, coeffs, u0, u1, interp.dwell_regions(u, u0, u1), calls[best], 100.0, 0.002, 1e-3)
+    assert np.array_equal(res["params"], want[0]) and np.array_equal(res["samples"], want[1])

@@ -260,8 +260,11 @@ def interpolate_constant_period(
             spent_ = np.diff(np.interp(rb, pu_, np.arange(len(pu_)) * T))
             return spent_ / dt, float(np.max(np.abs(spent_ / dt - 1)))
 
+        # Only one run's samples are held at a time: the best run's feeds are kept, and the
+        # best run is run again at the end when a later one was worse (the kernel is
+        # deterministic: the same samples, bit for bit).
         rel, err = worst(pu)
-        best = (err, pu, pp, pv, n_fb)
+        best_err, best_feed, best_pass, held = err, rfeed, 1, True
         for _ in range(max(0, int(schedule_passes) - 1)):
             if err < 0.01:
                 break
@@ -269,14 +272,21 @@ def interpolate_constant_period(
             if np.allclose(new_feed, rfeed, rtol=1e-3):
                 break
             rfeed = new_feed
-            pu, pp, pv, pm, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm, int(1.02 * len(pu)) + 1024)
+            room = int(1.02 * len(pu)) + 1024
+            del pu, pp, pv
+            pu, pp, pv, pm, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm, room)
             pred_max = max(pred_max, pm)
             passes += 1
             progress.update(len(pu), None, f"samples in schedule pass {passes}")
             rel, err = worst(pu)
-            if err < best[0]:
-                best = (err, pu, pp, pv, n_fb)
-        _, pu, pp, pv, n_fb = best
+            held = err < best_err
+            if held:
+                best_err, best_feed, best_pass = err, rfeed, passes
+        if not held:
+            room = int(1.02 * len(pu)) + 1024
+            del pu, pp, pv
+            pu, pp, pv, _, n_fb = kernel(breaks, cf, u0, u1, rb, best_feed, vmax, T, chord_tol_mm, room)
+            progress.update(len(pu), None, f"samples of schedule pass {best_pass} (the best), run again")
     t_interp = time.perf_counter() - t_start
     pp = pp[:, :d]  # a planar curve ran with z = 0
     steps = np.linalg.norm(np.diff(pp, axis=0), axis=1)
