@@ -209,6 +209,8 @@ def fig_surface_path(run: RunData):
     lo, hi = xyz.min(axis=0), xyz.max(axis=0)
     if v is not None:
         lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
+    flat = 0.005 * max(float((hi - lo).max()), 1e-9)  # a flat part: a thin slab, not a singular axis (a warning)
+    lo, hi = np.where(hi - lo > 0, lo, lo - flat), np.where(hi - lo > 0, hi, hi + flat)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
