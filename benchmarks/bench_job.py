@@ -15,7 +15,8 @@ in a child process, as a user would, and prints:
   dwell point (the writer's time is measured around
   :func:`polishpath.fileio.atomic_open`, through which every output goes:
   the child wraps it before the stages load);
-* the child's peak RSS (``os.wait4``'s resource usage of that child alone);
+* the child's peak RSS (``os.wait4``'s resource usage of that child alone), and the peak while
+  each stage and each file's writing ran (the child samples its RSS every 50 ms);
 * the issue's targets, met or missed and by how much.
 
 ``--huge`` adds 10^7 dwell points (minutes, and many GB of memory and disk).
@@ -57,18 +58,50 @@ import contextlib, json, os, sys, time
 import polishpath.fileio as fileio
 
 _records = []
+_stage = ["outside the stages"]
 _inner = fileio.atomic_open
 _t00 = time.perf_counter()
 
 @contextlib.contextmanager
 def _timed(path, mode="w"):
     t0 = time.perf_counter()
-    with _inner(path, mode) as fh:
-        yield fh
+    prev = _stage[0]
+    _stage[0] = f"{prev}: {os.path.basename(str(path))}"  # the peak RSS of each file's writing, too
+    try:
+        with _inner(path, mode) as fh:
+            yield fh
+    finally:
+        _stage[0] = prev
     t1 = time.perf_counter()
     _records.append({"file": os.path.abspath(str(path)), "start": t0 - _t00, "end": t1 - _t00})
 
 fileio.atomic_open = _timed
+
+# peak RSS while each stage runs (progress.stage labels the stages even when progress is not shown)
+import threading
+import polishpath.progress as progress
+_peaks = {}
+_stage_cm = progress.stage
+
+@contextlib.contextmanager
+def _labelled(label, timings=None, key=None):
+    prev, _stage[0] = _stage[0], key or label
+    try:
+        with _stage_cm(label, timings, key):
+            yield
+    finally:
+        _stage[0] = prev
+
+progress.stage = _labelled
+
+def _poll():
+    while True:
+        with open("/proc/self/status") as fh:
+            kb = next((int(l.split()[1]) for l in fh if l.startswith("VmRSS")), 0)
+        _peaks[_stage[0]] = max(_peaks.get(_stage[0], 0), kb * 1024)
+        time.sleep(0.05)
+
+threading.Thread(target=_poll, daemon=True).start()
 record_path, args = sys.argv[1], sys.argv[2:]
 sys.argv = ["polishpath"] + args
 from polishpath.cli import main
@@ -76,7 +109,7 @@ try:
     main()
 finally:
     with open(record_path, "w") as fh:
-        json.dump(_records, fh)
+        json.dump({"writers": _records, "rss_peaks": _peaks}, fh)
 """
 
 
@@ -131,13 +164,15 @@ def run_job(n_points: float, work: Path, extra: list[str]) -> dict:
     if proc.returncode != 0:
         raise SystemExit(f"polishpath plan exited {proc.returncode} for {n_points:.0e} points")
     summary = json.loads((out / "summary.json").read_text())
-    writers = json.loads(rec.read_text())
+    record = json.loads(rec.read_text())
+    writers = record["writers"]
     for w in writers:  # the job writes into a staging folder beside out (fileio.staged_folder), renamed at the end
         rel = Path(w["file"]).relative_to(os.path.abspath(work))
         if rel.parts[0].startswith(f".{out.name}.staging"):
             w["file"] = str(out / Path(*rel.parts[1:]))
     return {"n_target": n_points, "radius": radius, "wall": wall, "load": load, "out": out, "summary": summary,
-            "writers": writers, "rss_gb": usage.ru_maxrss * 1024 / 1e9, "cpu": usage.ru_utime + usage.ru_stime}
+            "writers": writers, "rss_gb": usage.ru_maxrss * 1024 / 1e9, "cpu": usage.ru_utime + usage.ru_stime,
+            "rss_peaks": {k: v / 1e9 for k, v in record.get("rss_peaks", {}).items()}}
 
 
 def show(r: dict) -> list[str]:
@@ -151,6 +186,10 @@ def show(r: dict) -> list[str]:
     print(f"  whole job {r['wall']:.1f} s (child wall time, Python start-up and imports included), "
           f"{r['cpu']:.1f} s of CPU (what a loaded machine does not inflate as much); peak RSS {r['rss_gb']:.2f} GB")
     print("  stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in tim.items()))
+    peaks = r.get("rss_peaks") or {}
+    if peaks:
+        print("  peak RSS by stage (sampled every 50 ms): " + ", ".join(f"{k} {v:.2f} GB" for k, v in peaks.items()))
+    top = max(peaks.items(), key=lambda kv: kv[1]) if peaks else ("?", 0.0)
     sm = tim.get("smooth", float("nan"))
     ip = float(s["smooth"]["stats"].get("interpolation_s", float("nan")))
     passes = s["smooth"]["stats"].get("schedule_passes", 1)
@@ -213,12 +252,12 @@ def show(r: dict) -> list[str]:
                f"by {r['wall'] - TARGET_1E6_S:+.0f} s)", "the largest stages: " + ", ".join(
                    f"{k} {v:.0f} s" for v, k in big))
         target(r["rss_gb"] <= TARGET_1E6_RSS_GB, f"10^6 peak RSS {r['rss_gb']:.2f} GB (target <= "
-               f"{TARGET_1E6_RSS_GB:.0f} GB)", "the job holds every machine sample (40 B each: point, "
-               "parameter, feed), twice while the schedule passes keep the best one")
+               f"{TARGET_1E6_RSS_GB:.0f} GB)", f"the peak is in the stage '{top[0]}' ({top[1]:.2f} GB); the job holds "
+               "every machine sample (40 B each: point, parameter, feed) until the writers have written them")
     if abs(math.log10(r["n_target"]) - 7) < 0.01:
         target(r["rss_gb"] <= TARGET_1E7_RSS_GB, f"10^7 peak RSS {r['rss_gb']:.2f} GB (target <= "
-               f"{TARGET_1E7_RSS_GB:.0f} GB)", "the job holds every machine sample (40 B each), twice "
-               "while the schedule passes keep the best one")
+               f"{TARGET_1E7_RSS_GB:.0f} GB)", f"the peak is in the stage '{top[0]}' ({top[1]:.2f} GB); the job "
+               "holds every machine sample (40 B each) until the writers have written them")
     for t in met:
         print(f"  target met: {t}")
     for t in missed:
