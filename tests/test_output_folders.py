@@ -26,7 +26,7 @@ from pathlib import Path
 import pytest
 
 from polishpath.errors import ExportError, OutputLocationError
-from polishpath.fileio import check_output_folder, staged_folder
+from polishpath.fileio import atomic_open, check_output_folder, staged_folder
 from polishpath.runfolder import is_run_folder
 
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -116,6 +116,29 @@ def test_keep_copies_only_the_kept_entries(tmp_path):
         (stage / "report.html").write_text("new report")
     assert sorted(os.listdir(target)) == ["report.html", "summary.json"]
     assert (target / "report.html").read_text() == "new report"
+
+
+def test_kept_entries_are_linked_and_a_failed_rewrite_leaves_them_as_they_were(tmp_path):
+    # a kept file costs no copy (a hard link, same inode), and replacing it in the
+    # staging folder through atomic_open (how every writer writes) never reaches
+    # the previous folder's file, even when the run then fails
+    target = tmp_path / "out"
+    (target / "simulation").mkdir(parents=True)
+    (target / "run.npz").write_bytes(b"x" * 1000)
+    (target / "simulation" / "table.txt").write_text("old table")
+    (target / "summary.json").write_text("old summary")
+    with pytest.raises(RuntimeError, match="late failure"):
+        with staged_folder(target, lambda p: True, keep=lambda n: True) as stage:
+            assert os.stat(stage / "run.npz").st_ino == os.stat(target / "run.npz").st_ino
+            assert os.stat(stage / "simulation" / "table.txt").st_ino == \
+                os.stat(target / "simulation" / "table.txt").st_ino
+            with atomic_open(stage / "summary.json") as fh:
+                fh.write("new summary")
+            assert (stage / "summary.json").read_text() == "new summary"
+            raise RuntimeError("late failure")
+    assert (target / "summary.json").read_text() == "old summary"
+    assert (target / "run.npz").read_bytes() == b"x" * 1000
+    assert (target / "simulation" / "table.txt").read_text() == "old table"
 
 
 def test_refusals_before_any_work(tmp_path):

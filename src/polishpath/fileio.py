@@ -193,8 +193,10 @@ def staged_folder(target: str | Path, recognise: Callable[[Path], bool], *, keep
         be replaced (anything else non-empty is refused, see :func:`check_output_folder`).
     keep : callable, optional
         ``keep(name) -> bool`` for the top-level entries of an existing
-        ``target`` to copy into the staging folder first (``polishpath report``
-        keeps the run's files and rewrites only its report); None: start empty.
+        ``target`` to put into the staging folder first, as hard links where the
+        file system allows (else copies): ``polishpath report`` keeps the run's
+        files and rewrites only its report. A writer must replace a kept file
+        (:func:`atomic_open`), never rewrite it in place. None: start empty.
     need_bytes, what, kind
         As in :func:`check_output_folder`.
 
@@ -224,9 +226,9 @@ def staged_folder(target: str | Path, recognise: Callable[[Path], bool], *, keep
             for entry in sorted(t.iterdir()):
                 if keep(entry.name):
                     if entry.is_dir():
-                        shutil.copytree(entry, stage / entry.name)
+                        shutil.copytree(entry, stage / entry.name, copy_function=_link_or_copy)
                     else:
-                        shutil.copy2(entry, stage / entry.name)
+                        _link_or_copy(entry, stage / entry.name)
         try:
             yield stage
         except OSError as exc:
@@ -253,6 +255,20 @@ def staged_folder(target: str | Path, recognise: Callable[[Path], bool], *, keep
         if stage is not None and stage.exists():
             with _signals_held():
                 shutil.rmtree(stage, ignore_errors=True)
+
+
+def _link_or_copy(src, dst) -> None:
+    """Put ``src`` at ``dst`` as a hard link (no bytes copied), or a copy where links are refused.
+
+    A kept entry of :func:`staged_folder` is linked, so rebuilding the report of
+    a 2 GB run copies nothing. That is safe because every writer replaces a
+    file (:func:`atomic_open`: a new file renamed over the name) instead of
+    rewriting it in place, so the previous folder's inode is never changed.
+    """
+    try:
+        os.link(src, dst)
+    except OSError:  # another file system, no hard links (EXDEV, EPERM, EMLINK, ...)
+        shutil.copy2(src, dst)
 
 
 def jsonable(o: Any) -> Any:
