@@ -18,12 +18,16 @@ def simulate_cmd(
     patterns: str = typer.Option("pseudorandom,raster,spiral,rectangular", "--patterns", help="SURFACE: comma-separated path patterns to compare."),
     spacing: float = typer.Option(0.5, "--spacing", "-s", help="SURFACE: dwell-point spacing, mm, on the part as in `plan` (with --spacing-on plane: in the flattened plane). A run keeps its own."),
     spacing_on: str = typer.Option("surface", "--spacing-on", help="SURFACE: where --spacing holds, 'surface' (the part, as in `plan`) or 'plane' (the flattened plane)."),
-    seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the planner, the initial surface and the process noise (default 0; RUN_DIR: the run's seed)."),
+    seed: Optional[int] = typer.Option(None, "--seed", help="Base seed of the planner, the initial surface and the process noise (default 0; RUN_DIR: the run's seed)."),
+    seeds: int = typer.Option(5, "--seeds", help="SURFACE: run the random inputs (the pseudo-random path, the initial surface, the noise) over N seeds, seed i = base seed + i; figures are mean [min, max]."),
+    mode: str = typer.Option("process", "--mode", help="SURFACE: 'process' (rough start, process noise, pad smoothing) or 'interference-free' (flat start, no noise: only the path's own marks)."),
+    machine: Optional[str] = typer.Option(None, "--machine", help="SURFACE, machine timing: a machine profile (TOML file, see examples/machine-*.toml, or generic-3axis) whose axis limits slow the tool down at turns."),
+    without: Optional[str] = typer.Option(None, "--without", help="SURFACE: switch mechanisms off, comma-separated: footprint (zero-feed footprint), edge (smooth pressure), smoothing, noise, slowdown (ideal timing)."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", help="Output folder (default: out-simulate; RUN_DIR: RUN_DIR/simulation). A run folder gets a simulation/ subfolder and its report is rebuilt."),
     patch: float = typer.Option(20.0, "--patch", help="SURFACE: side of the simulated square patch at the region's centre, mm."),
     dx: Optional[float] = typer.Option(None, "--dx", help="Simulation pixel pitch, mm (SURFACE default 0.005: 5 um resolves 100 1/mm; RUN_DIR default: the finest of 5 um that keeps the whole part within 4 M pixels)."),
     plane: str = typer.Option("auto", "--plane", help="RUN_DIR: 'xy' (the part's projected x, y), 'unrolled' (the flattening's plane, depth corrected by its area ratio) or 'auto' (xy for a height field with slopes <= 30 deg, else unrolled)."),
-    timing: str = typer.Option("machine", "--timing", help="RUN_DIR: 'machine' (the constant-period samples the machine runs) or 'dwell' (the dwell points with the times the schedule aimed at)."),
+    timing: str = typer.Option("machine", "--timing", help="'machine' (default: the constant-period samples the job's smoothing and feed schedule run, slow-downs included) or 'ideal' (each dwell point's time exactly as asked; RUN_DIR also calls it 'dwell')."),
     rpm: float = typer.Option(230.0, "--rpm", help="Tool spin, 1/min (the paper's sponge: 230)."),
     radius: float = typer.Option(2.0, "--radius", help="Tool contact radius, mm."),
     pressure: str = typer.Option("parabolic", "--pressure", help="Contact pressure profile: parabolic, hertz, uniform, gaussian."),
@@ -31,7 +35,7 @@ def simulate_cmd(
     fwhm: Optional[float] = typer.Option(None, "--fwhm", help="Use a plain Gaussian tool influence function of this FWHM (mm) instead of the rotating tool."),
     rate: float = typer.Option(5.0, "--rate", help="Peak removal rate of the Gaussian TIF (with --fwhm), nm/s."),
     depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (SURFACE: sets the dwell time per point; RUN_DIR: scales the tool's rate)."),
-    time_model: str = typer.Option("segments", "--time-model", help="SURFACE: 'segments' (continuous motion), 'points' (stop and dwell) or 'machine' (NURBS at the interpolation period)."),
+    time_model: Optional[str] = typer.Option(None, "--time-model", help="SURFACE: override --timing with a time model: 'segments' (continuous motion), 'points' (stop and dwell) or 'machine' (NURBS at the interpolation period, the simulation's own)."),
     method: str = typer.Option("mabf", "--method", "-m", help="SURFACE: flattening, mabf (default), abf, lscm, projection."),
     units: Optional[str] = UNITS_OPT,
     scale: Optional[float] = SCALE_OPT,
@@ -44,17 +48,22 @@ def simulate_cmd(
     SURFACE: plans every pattern on the part through the job's own wiring
     (spacing on the part, as in `plan`), simulates Preston removal with the same
     tool and process on a patch of the flattened plane (by default a sponge
-    spinning at 230 rpm whose footprint leans with the feed direction), and
-    prints before / after band-average PSD (1e3-1e5 1/m) and the suppression
-    ratio; writes psd.png, residual maps, table.txt and results.json.
+    spinning at 230 rpm whose footprint leans with the feed direction), each
+    path removing the same mean depth from the same start, over --seeds seeds;
+    prints the fair figures of each residual (band RMS 1e3-1e5 1/m, the PSD
+    peak at the path's lattice frequencies, PV / depth) and the paper's
+    before / after suppression ratio, each as mean [min, max], and the
+    rankings (ties where the ranges overlap); writes psd.png, residuals.png,
+    table.txt and results.json.
 
     RUN_DIR: simulates the run's own path (its machine samples, or its dwell
     points) over its whole part from a flat start, and prints the depth's mean,
-    RMS and PV inside the part and the PSD of its centre; writes
-    RUN_DIR/simulation/ and rebuilds the run's report. The model's assumptions
-    are in docs/simulation.md.
+    RMS and PV inside the part and the PSD and fair figures of its centre;
+    writes RUN_DIR/simulation/ and rebuilds the run's report. The model's
+    assumptions are in docs/simulation.md.
 
     Examples: polishpath simulate hemisphere --spacing 0.5 --seed 1 -o out-sim ;
+    polishpath simulate plane --mode interference-free --without footprint ;
     polishpath simulate out-run
     """
     from ..simulate import gaussian_tif, rotating_tool_tif
@@ -65,13 +74,24 @@ def simulate_cmd(
         tif = (gaussian_tif(rate, fwhm_mm=fwhm) if fwhm is not None
                else rotating_tool_tif(rpm, radius, pressure, feed_mm_min=feed))
         if run_mode:
-            _simulate_run(Path(target), output, tif, plane=plane, timing=timing, dx=dx, depth=depth, seed=seed,
-                          json_out=json_out)
+            _simulate_run(Path(target), output, tif, plane=plane, timing="dwell" if timing == "ideal" else timing,
+                          dx=dx, depth=depth, seed=seed, json_out=json_out)
         else:
+            from ..simulate.compare import check_comparison
+            from ..simulate.mechanisms import parse_mechanisms
+
+            check_comparison(seeds=seeds, mode=mode, timing=timing, time_model=time_model)  # before any work
+            mech = parse_mechanisms(without)
+            prof = None
+            if machine is not None:
+                from ..schedule import load_machine
+
+                prof = load_machine(machine)
             _simulate_patterns(target, output or Path("out-simulate"), tif, patterns=patterns, spacing=spacing,
                                spacing_on=spacing_on, seed=0 if seed is None else seed, patch=patch,
                                dx=0.005 if dx is None else dx, depth=depth, time_model=time_model, method=method,
-                               units=units, scale=scale, component=component, json_out=json_out)
+                               units=units, scale=scale, component=component, json_out=json_out, seeds=seeds,
+                               mode=mode, timing=timing, machine=prof, mechanisms=mech)
 
 
 def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, dx, depth, seed, json_out) -> None:
@@ -111,7 +131,8 @@ def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, 
 
 
 def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, spacing_on, seed, patch, dx, depth,
-                       time_model, method, units, scale, component, json_out) -> None:
+                       time_model, method, units, scale, component, json_out, seeds, mode, timing, machine,
+                       mechanisms) -> None:
     """``polishpath simulate SURFACE``: plan each pattern through pipeline.plan_on_surface, compare in the plane."""
     from .. import progress
     from ..errors import ParameterError
@@ -134,20 +155,31 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
     with progress.stage(f"flattening ({method})"):
         flat = flatten(s, method)
         region = boundary_region(flat)
+    from ..plan import RANDOM_PATTERNS
+
     planned, info = {}, {}
     for pat in pats:
-        with progress.stage(f"planning {pat} ({spacing:g} mm on the {'part' if spacing_on == 'surface' else 'plane'})"):
-            # margin=None: the job's own automatic margin, so `plan` at this spacing plans the same grid
-            sp = plan_on_surface(flat, region, spacing, pattern=pat, seed=seed, spacing_on=spacing_on, margin=None)
-        planned[pat] = sp.planar
+        n_plans = seeds if pat in RANDOM_PATTERNS else 1  # a deterministic path is planned once
+        plans = []
+        for i in range(n_plans):
+            with progress.stage(f"planning {pat} ({spacing:g} mm on the "
+                                f"{'part' if spacing_on == 'surface' else 'plane'}"
+                                + (f", seed {seed + i})" if n_plans > 1 else ")")):
+                # margin=None: the job's own automatic margin, so `plan` at this spacing plans the same grid
+                plans.append(plan_on_surface(flat, region, spacing, pattern=pat, seed=seed + i,
+                                             spacing_on=spacing_on, margin=None))
+        sp = plans[0]
+        planned[pat] = [p.planar for p in plans] if pat in RANDOM_PATTERNS else sp.planar
         info[pat] = {"n_points": int(sp.planar.n_points), "planar_spacing_mm": float(sp.planar_spacing),
-                     "spacing_mm": float(spacing), "spacing_on": spacing_on,
-                     "provenance": sp.planar.provenance.to_dict()}
+                     "spacing_mm": float(spacing), "spacing_on": spacing_on, "random": pat in RANDOM_PATTERNS,
+                     "seeds": [seed + i for i in range(n_plans)], "provenance": sp.planar.provenance.to_dict()}
     sim_dir = output / "simulation" if into_run else output
-    with staged as stage, progress.stage(f"simulating {len(pats)} paths on a {patch:g} mm patch at {dx * 1000:g} um"):
+    with staged as stage, progress.stage(f"simulating {len(pats)} paths x {seeds} seeds on a {patch:g} mm patch at "
+                                         f"{dx * 1000:g} um ({mode}, {timing} timing)"):
         try:
             bounds = patch_bounds_at_centre(region, patch)
-            res = compare_planned(planned, seed=seed, dx_mm=dx, tif=tif, removal_depth_nm=depth,
+            res = compare_planned(planned, seed=seed, seeds=seeds, mode=mode, timing=timing, machine=machine,
+                                  mechanisms=mechanisms, dx_mm=dx, tif=tif, removal_depth_nm=depth,
                                   time_model=time_model, patch_bounds=bounds,
                                   out_dir=stage / "simulation" if into_run else stage, plan_info=info)
         except PatchTooSmallError:
@@ -160,13 +192,14 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
             with progress.stage("rebuilding the run's report"):
                 write_report(stage, shown_as=output)
     if json_out:
-        _print_json({"surface": s.source or s.name, "output": str(sim_dir), "rows": res["rows"], "params": res["params"]})
+        _print_json({"surface": s.source or s.name, "output": str(sim_dir), "rows": res["rows"],
+                     "rankings": res["rankings"], "params": res["params"]})
         return
     typer.echo(res["table"])
     typer.echo(f"spacing {spacing:g} mm on the {'part' if spacing_on == 'surface' else 'flattened plane'}; "
                "simulated in the flattened plane at each pattern's planar spacing ("
                + ", ".join(f"{k} {v['planar_spacing_mm']:.3g} mm" for k, v in info.items()) + ")")
-    typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, psd.png, residual maps)")
+    typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, psd.png, residuals.png, residual maps)")
 
 
 def _simulation_staging(folder: Path, into_run: bool):

@@ -381,7 +381,9 @@ def build_html(run: RunData, figures: dict[str, tuple[Any, Path | None]], *, com
     parts.append('<section id="feed"><h2>Feed rate along the path</h2>' + block("feed_rate") + "</section>")
 
     # 6. simulation
-    parts.append(_simulation_section(run))
+    from .simulation import simulation_section
+
+    parts.append(simulation_section(run, _png_data_uri, _table, flatten_items))
 
     # 6b. figuring (only for runs whose dwell times were solved from an error map)
     from .figuring import figuring_section
@@ -405,33 +407,6 @@ def build_html(run: RunData, figures: dict[str, tuple[Any, Path | None]], *, com
             f"<title>{_esc(title)}</title><style>{_CSS}</style></head><body>"
             + header + nav + "<main>" + "".join(parts) + "</main>" + footer
             + "".join(scripts) + js + "</body></html>")
-
-
-def _simulation_section(run: RunData) -> str:
-    sim = run.simulation
-    if not sim:
-        return ('<section id="simulation"><h2>Simulation</h2><p class="note">No simulation in this run folder. '
-                "Run <code>polishpath simulate</code> on it to add PSD curves and residual maps here.</p></section>")
-    out = ['<section id="simulation"><h2>Simulation (paper Fig. 13)</h2>']
-    if sim.get("table"):
-        out.append(f"<pre>{_esc(sim['table'])}</pre>")
-    imgs = sim.get("images") or []
-    if imgs:
-        out.append('<div class="grid">')
-        for p in imgs:
-            try:
-                if p.stat().st_size == 0:
-                    continue
-                uri = _png_data_uri(p)
-            except OSError:
-                continue
-            out.append(f'<figure><img alt="{_esc(p.stem)}" src="{uri}"><figcaption>{_esc(p.name)}</figcaption></figure>')
-        out.append("</div>")
-    if sim.get("summary") is not None:
-        out.append("<details><summary>All simulation figures</summary>"
-                   + _table(flatten_items(sim["summary"])) + "</details>")
-    out.append("</section>")
-    return "".join(out)
 
 
 def _tables_section(run: RunData) -> str:

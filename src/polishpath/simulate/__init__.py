@@ -6,6 +6,7 @@ Units: lengths mm, heights nm, times s, removal rates nm/s, frequencies 1/mm.
 from .compare import (
     DEFAULT_NOISE,
     DEFAULT_SMOOTHING,
+    MODES,
     PAPER_TABLE4,
     compare_paths,
     compare_patterns,
@@ -41,6 +42,9 @@ from .tif import TIF, DirectionalTIF, gaussian_tif, measured_tif, tilted_tool_ti
 from .jobfiles import format_job_table, write_job_outputs
 from .jobpath import PLANES, TIMINGS, TimedPath, choose_plane, simulate_job, simulate_path, timed_path
 from .jobfiles import is_simulation_folder
+from .machinetime import machine_timed_path
+from .mechanisms import MECHANISMS, Mechanisms, parse_mechanisms
+from .spread import FAIR_KEYS, rank
 from .workpiece import Workpiece, flat_workpiece, synthetic_workpiece, workpiece_from_measurement
 
 __all__ = [
@@ -54,4 +58,5 @@ __all__ = [
     "simulate_job", "simulate_path", "timed_path", "format_job_table", "write_job_outputs",
     "FairMetrics", "band_rms_nm", "detrend_residual", "fair_metrics", "lattice_frequencies", "lattice_peak_db",
     "pvn", "ripple_amplitude",
+    "MODES", "MECHANISMS", "Mechanisms", "parse_mechanisms", "machine_timed_path", "FAIR_KEYS", "rank",
 ]

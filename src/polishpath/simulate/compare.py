@@ -1,10 +1,18 @@
-"""Compare tool paths by simulated polishing: the paper's Table 4, for your part and tool."""
+"""Compare tool paths by simulated polishing, fairly: the paper's Table 4, for your part and tool.
+
+Every path removes the same mean depth from the same start with the same
+tool; each residual is judged by the fair metrics of
+:mod:`polishpath.simulate.fair` (band RMS, lattice peak, PVn) beside the
+paper's before/after suppression ratio, over N seeds (mean and range). The
+machine timing is :mod:`~polishpath.simulate.machinetime`, the switchable
+effects :mod:`~polishpath.simulate.mechanisms`, the spread and ties
+:mod:`~polishpath.simulate.spread`, the files :mod:`~polishpath.simulate.comparefiles`.
+"""
 
 from __future__ import annotations
 
-import json
 import time
-from pathlib import Path
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -14,10 +22,17 @@ from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peak
 from ..pathops import split_by_pieces
 from ..types import PlanarPath, Region
 from .motion import dwell_from_feed
-from .removal import ProcessNoise, SimulationResult, Smoothing, simulate_removal
+from .comparefiles import format_table, plot_psds, write_outputs
+from .machinetime import TIMINGS, machine_timed_path
+from .mechanisms import Mechanisms, tool_with
+from .removal import ProcessNoise, SimulationResult, Smoothing, simulate_removal, smooth_surface
 from .rotating import RotatingToolTIF, rotating_tool_tif
+from .spread import FAIR_KEYS, aggregate_rows, rank, spread
 from .tif import TIF, DirectionalTIF
-from .workpiece import DEFAULT_DX_MM, Workpiece, synthetic_workpiece
+from .workpiece import DEFAULT_DX_MM, Workpiece, flat_workpiece, synthetic_workpiece
+
+__all__ = ["DEFAULT_NOISE", "DEFAULT_SMOOTHING", "MODES", "PAPER_TABLE4", "compare_paths", "compare_patterns",
+           "compare_planned", "default_tif", "evaluate_result", "format_table", "plot_psds", "profile_psd"]
 
 #: The paper's Table 4: (before, after, suppression ratio) of the band-average PSD, 10^3-10^5 1/m.
 PAPER_TABLE4: dict[str, tuple[float, float, float]] = {
@@ -105,17 +120,42 @@ def evaluate_result(result: SimulationResult, eval_bounds, *, band=PAPER_BAND_PE
     -------
     dict
         ``psd_before``, ``psd_after`` (:class:`PSD`), ``before``/``after``
-        band averages (nm^2 mm), ``suppression_ratio``, band RMS (nm),
+        band averages (nm^2 mm), ``suppression_ratio`` (None when the start has
+        no power in the band), band RMS (nm),
         ``peaks_after``.
     """
     a = _crop(result.after_nm, result.origin_mm, result.dx_mm, eval_bounds)
     pb = psd_before or profile_psd(_crop(result.before_nm, result.origin_mm, result.dx_mm, eval_bounds), result.dx_mm)
     pa = profile_psd(a, result.dx_mm)
+    before = band_average(pb, *band)
     return {
-        "psd_before": pb, "psd_after": pa, "before": band_average(pb, *band), "after": band_average(pa, *band),
-        "suppression_ratio": suppression_ratio(pb, pa, band), "band_rms_before_nm": band_rms(pb, *band),
+        "psd_before": pb, "psd_after": pa, "before": before, "after": band_average(pa, *band),
+        # undefined from a start with no power in the band (a flat start)
+        "suppression_ratio": suppression_ratio(pb, pa, band) if before > 0 else None,
+        "band_rms_before_nm": band_rms(pb, *band),
         "band_rms_after_nm": band_rms(pa, *band), "peaks_after": find_peaks(pa, spacing_mm, band=band),
     }
+
+
+#: the modes of a comparison (docs/simulation.md, "Comparing paths")
+MODES = ("process", "interference-free")
+#: the most seeds a comparison runs
+MAX_SEEDS = 100
+
+
+def _reach(tif) -> float:
+    """How far the tool removes from its centre, mm."""
+    if isinstance(tif, RotatingToolTIF):
+        return tif.radius_mm  # the footprint ends at the contact edge
+    tifs = tif.tifs if isinstance(tif, DirectionalTIF) else (tif,)
+    return max(4.5 * t.params["sigma_mm"] if t.kind == "gaussian" else t.radius_mm for t in tifs)
+
+
+def _residual_picture(z: np.ndarray, x0: float, y0: float, dx: float, seed: int, max_px: int = 400) -> dict:
+    step = max(1, int(np.ceil(max(z.shape) / max_px)))
+    zz = np.asarray(z[::step, ::step], dtype=np.float32)
+    return {"map_nm": zz, "extent_mm": [x0, x0 + zz.shape[1] * step * dx, y0, y0 + zz.shape[0] * step * dx],
+            "seed": seed}
 
 
 def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | DirectionalTIF, *,
@@ -123,16 +163,17 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
                   seed: int = 0, band=PAPER_BAND_PER_MM, spacing_mm: float | None = None,
                   eval_bounds=None, eval_inset_mm: float | None = None, out_dir=None,
                   keep_results: bool = False, time_model: str = "segments", machine: dict | None = None,
-                  removal_dx_mm: float | None = None) -> dict[str, Any]:
-    """Run the same removal on several paths and tabulate the band-average PSD before and after.
+                  removal_dx_mm: float | None = None, depth_nm: float | None = None) -> dict[str, Any]:
+    """Run the same removal on several paths (one seed) and judge each residual by the fair metrics.
 
     Parameters
     ----------
-    paths : dict of name -> (path_xy (N, 2) mm, dwell_s (N,) s) or (path_xy, dwell_s, pieces)
-        The paths to compare, in the workpiece's plane.
+    paths : dict of name -> (path_xy (N, 2) mm, dwell_s (N,) s[, pieces[, time_model]])
+        The paths to compare, in the workpiece's plane; a fourth item overrides
+        ``time_model`` for that path (``"moves"`` for machine samples).
     workpiece : Workpiece
         Initial surface (the same for every path).
-    tif : TIF or DirectionalTIF
+    tif : TIF, DirectionalTIF or RotatingToolTIF
     noise : ProcessNoise or None
         Process noise; each path gets the same seed.
     smoothing : Smoothing or None
@@ -140,73 +181,102 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
     band : (float, float)
         1/mm (default 1-100 = 10^3-10^5 1/m).
     spacing_mm : float, optional
-        Path spacing, to name spectral peaks.
+        Path spacing, mm: the lattice frequencies of :func:`~polishpath.simulate.fair.lattice_peak_db`
+        and the names of spectral peaks (default 0.5 for the lattice).
     eval_bounds : (xmin, ymin, xmax, ymax), optional
         Where to measure, mm. Default: the patch inset by ``eval_inset_mm``.
     eval_inset_mm : float, optional
-        Default ``2 * TIF radius``-ish: ``4.5 sigma + spacing``.
+        Default: the tool's reach + the spacing.
     out_dir : str or Path, optional
-        Write ``table.txt``, ``results.json``, ``psd.png`` and ``residual_<name>.png`` here.
+        Write ``table.txt``, ``results.json``, ``psd.png``, ``residuals.png`` and ``residual_<name>.png`` here.
     keep_results : bool
         Put the full :class:`SimulationResult` of each path in the output.
-    time_model : {"segments", "points", "machine"}
-        Continuous motion, stop-and-dwell, or the NURBS-smoothed path at a
-        constant interpolation period (see :func:`simulate_removal`).
+    time_model : {"segments", "points", "machine", "moves"}
+        See :func:`simulate_removal`.
     machine : dict, optional
         Options of the ``"machine"`` time model.
     removal_dx_mm : float, optional
         Convolution pitch for a RotatingToolTIF (see :func:`simulate_removal`).
+    depth_nm : float, optional
+        Make every path remove exactly this mean depth inside the evaluation
+        window (nm): its removal is scaled (exact: the model is linear in the
+        rate) and the smoothing applied for this depth. None: as simulated.
 
     Returns
     -------
     dict
-        ``rows`` (list of dicts: name, before, after, suppression_ratio,
-        band RMS, peaks, timings), ``table`` (text), ``params`` (everything
-        needed to reproduce), ``psds`` (name -> PSD, plus ``"before"``).
+        ``rows`` (per path: ``residual_band_rms_nm``, ``lattice_peak_db``,
+        ``pvn``, ``residual_rms_nm``, ``residual_pv_nm`` (the fair metrics of
+        the residual), ``before`` / ``after`` band averages, ``suppression_ratio``
+        (None from a flat start), band RMS, peaks, times), ``params``, ``psds``
+        (name -> PSD of the residual, plus ``"before"``), ``residuals`` (name ->
+        downsampled residual map for the figures), ``table``.
     """
+    from .fair import detrend_residual, fair_metrics
+
     if not paths:
         raise ParameterError("no path to compare.", "Give at least one (path_xy, dwell_s) pair.")
     if eval_bounds is None:
-        if isinstance(tif, RotatingToolTIF):
-            reach = tif.radius_mm  # the footprint ends at the contact edge
-        else:
-            reach = 4.5 * max((t.params.get("sigma_mm", 0.5)
-                               for t in (tif.tifs if isinstance(tif, DirectionalTIF) else (tif,))))
-        inset = eval_inset_mm if eval_inset_mm is not None else reach + (spacing_mm or 0.5)
+        inset = eval_inset_mm if eval_inset_mm is not None else _reach(tif) + (spacing_mm or 0.5)
         x0, y0, x1, y1 = workpiece.bounds
         eval_bounds = (x0 + inset, y0 + inset, x1 - inset, y1 - inset)
-    rows, psds, results = [], {}, {}
-    if out_dir is not None:
-        Path(out_dir).mkdir(parents=True, exist_ok=True)
+    flat_start = not np.any(np.asarray(workpiece.height_nm))
+    rows, psds, results, pictures = [], {}, {}, {}
+    dx = workpiece.dx_mm
     for name, spec in paths.items():
         xy, dwell = spec[0], spec[1]
         pieces = spec[2] if len(spec) > 2 else None
+        tm = spec[3] if len(spec) > 3 else time_model
         t0 = time.perf_counter()
         res = simulate_removal(xy, dwell, workpiece, tif, noise=noise, smoothing=smoothing, seed=seed, pieces=pieces,
-                               time_model=time_model, machine=machine, removal_dx_mm=removal_dx_mm)
+                               time_model=tm, machine=machine, removal_dx_mm=removal_dx_mm)
+        scale = None
+        if depth_nm is not None:  # the same mean depth for every path, inside the evaluation window
+            m = float(_crop(res.removal_nm, res.origin_mm, dx, eval_bounds).astype(np.float64).mean())
+            scale = depth_nm / m if m > 0 else 1.0
+            removal = (res.removal_nm * np.float32(scale)).astype(np.float32)
+            base = (smooth_surface(res.before_nm, dx, depth_nm, smoothing) if smoothing is not None
+                    else res.before_nm)
+            res = replace(res, removal_nm=removal, after_nm=(base - removal).astype(np.float32),
+                          stats={**res.stats, "depth_scale": scale})
         ev = evaluate_result(res, eval_bounds, band=band, spacing_mm=spacing_mm, psd_before=psds.get("before"))
+        after = _crop(res.after_nm, res.origin_mm, dx, eval_bounds).astype(np.float64)
+        depth = depth_nm if depth_nm is not None else float(
+            _crop(res.removal_nm, res.origin_mm, dx, eval_bounds).astype(np.float64).mean())
+        fm = fair_metrics(after, dx, spacing_mm or 0.5, depth, band=band)
         dt = time.perf_counter() - t0
         psds.setdefault("before", ev["psd_before"])
         psds[name] = ev["psd_after"]
-        row = {"name": name, "before": ev["before"], "after": ev["after"], "suppression_ratio": ev["suppression_ratio"],
+        row = {"name": name, "residual_band_rms_nm": fm.residual_band_rms_nm, "lattice_peak_db": fm.lattice_peak_db,
+               "pvn": fm.pvn, "residual_rms_nm": fm.residual_rms_nm, "residual_pv_nm": fm.residual_pv_nm,
+               "before": ev["before"], "after": ev["after"],
+               "suppression_ratio": None if flat_start else ev["suppression_ratio"],
                "band_rms_before_nm": ev["band_rms_before_nm"], "band_rms_after_nm": ev["band_rms_after_nm"],
-               "peaks": ev["peaks_after"], "n_points": int(len(xy)), "mean_depth_nm": res.stats["mean_depth_nm"],
-               "total_time_s": res.stats["total_time_s"], "effective_time_s": res.stats["effective_time_s"],
-               "time_off_grid_s": res.stats["time_off_grid_s"], "rotating": res.stats.get("rotating"),
-               "motion": res.stats.get("motion") or None, "seconds": dt}
+               "peaks": ev["peaks_after"], "n_points": int(len(xy)), "time_model": tm,
+               "mean_depth_nm": depth if depth_nm is not None else res.stats["mean_depth_nm"],
+               "depth_scale": scale, "total_time_s": res.stats["total_time_s"],
+               "effective_time_s": res.stats["effective_time_s"], "time_off_grid_s": res.stats["time_off_grid_s"],
+               "rotating": res.stats.get("rotating"), "motion": res.stats.get("motion") or None, "seconds": dt}
         rows.append(row)
-        if out_dir is not None:
-            _plot_residual(res, eval_bounds, Path(out_dir) / f"residual_{name}.png", name)
+        i0, j0 = _crop_origin(res.origin_mm, dx, eval_bounds)
+        pictures[name] = _residual_picture(detrend_residual(after, dx), res.origin_mm[0] + i0 * dx,
+                                           res.origin_mm[1] + j0 * dx, dx, seed)
         if keep_results:
             results[name] = res
         del res
-    units = psds["before"].units
-    params = {"time_model": time_model, "machine": machine, "band_per_mm": list(band), "eval_bounds_mm": [float(v) for v in eval_bounds], "seed": seed,
+    if flat_start:
+        psds.pop("before", None)
+    units = next(iter(psds.values())).units
+    params = {"time_model": time_model, "machine": machine, "band_per_mm": list(band),
+              "eval_bounds_mm": [float(v) for v in eval_bounds], "seed": seed, "seeds": [seed],
               "spacing_mm": spacing_mm, "tif": _tif_params(tif), "noise": None if noise is None else vars(noise).copy(),
               "smoothing": None if smoothing is None else vars(smoothing).copy(), "dx_mm": workpiece.dx_mm,
-              "workpiece": workpiece.provenance.to_dict(), "psd": "1D profiles, rows+columns averaged, hann, tilt removed",
-              "units": units}
-    out = {"rows": rows, "params": params, "psds": psds, "table": format_table(rows, units)}
+              "workpiece": workpiece.provenance.to_dict(), "flat_start": flat_start, "removal_depth_nm": depth_nm,
+              "psd": "1D profiles, rows+columns averaged, hann, tilt removed", "units": units,
+              "fair": "polishpath.simulate.fair.fair_metrics of the residual in the evaluation window"}
+    rankings = {k: rank(rows, k) for k in FAIR_KEYS}
+    out = {"rows": rows, "params": params, "psds": psds, "residuals": pictures, "rankings": rankings,
+           "table": format_table(rows, units, params=params, rankings=rankings)}
     if keep_results:
         out["results"] = results
     if out_dir is not None:
@@ -214,101 +284,14 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
     return out
 
 
+def _crop_origin(origin, dx, bounds) -> tuple[int, int]:
+    return (int(np.ceil((bounds[0] - origin[0]) / dx - 1e-9)), int(np.ceil((bounds[1] - origin[1]) / dx - 1e-9)))
+
+
 def _tif_params(tif) -> dict[str, Any]:
     if isinstance(tif, DirectionalTIF):
         return {"kind": "directional", **tif.params}
     return {"kind": tif.kind, **tif.params}
-
-
-def format_table(rows: list[dict[str, Any]], units: str = "nm^2 mm") -> str:
-    """Table 4 analogue as text, with the paper's numbers beside the simulated ones."""
-    head = (f"{'path':<14}{'before':>12}{'after':>12}{'suppr.':>9}   |  paper: {'before':>7}{'after':>7}{'suppr.':>8}"
-            f"   peaks (after)\n")
-    lines = [f"band-average PSD, {units} (simulated) / paper's own units\n", head, "-" * (len(head) + 10) + "\n"]
-    for r in rows:
-        p = PAPER_TABLE4.get(r["name"])
-        paper = f"{p[0]:>7.3f}{p[1]:>7.3f}{100 * p[2]:>7.2f}%" if p else f"{'':>7}{'':>7}{'':>8}"
-        pk = ", ".join(f"{d['freq_per_mm']:.2f}/mm{(' ' + d['label']) if d['label'] else ''}" for d in r["peaks"][:3])
-        lines.append(f"{r['name']:<14}{r['before']:>12.4g}{r['after']:>12.4g}{100 * r['suppression_ratio']:>8.2f}%"
-                     f"   |         {paper}   {pk or '-'}\n")
-    return "".join(lines)
-
-
-def write_outputs(out: dict[str, Any], out_dir) -> None:
-    """Write ``table.txt``, ``results.json`` and ``psd.png`` of a comparison into ``out_dir``."""
-    d = Path(out_dir)
-    d.mkdir(parents=True, exist_ok=True)
-    (d / "table.txt").write_text(out["table"])
-    js = {"rows": out["rows"], "params": out["params"],
-          "psds": {k: {"freq_per_mm": v.freq.tolist(), "psd": v.psd.tolist(), "units": v.units} for k, v in out["psds"].items()}}
-    (d / "results.json").write_text(json.dumps(js, indent=1, default=_json_default))
-    plot_psds(out["psds"], d / "psd.png", band=tuple(out["params"]["band_per_mm"]))
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
-
-
-def plot_psds(psds: dict[str, PSD], file, *, band=PAPER_BAND_PER_MM, title: str = "Simulated profile PSD") -> Path:
-    """Log-log PSD plot, one curve per path, the band shaded, units on the axes.
-
-    Parameters
-    ----------
-    psds : dict of name -> PSD
-    file : str or Path
-        PNG to write.
-    band : (float, float)
-        1/mm, shaded.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for name, p in psds.items():
-        ax.loglog(p.freq, p.psd, lw=1.0 if name != "before" else 1.6, color="k" if name == "before" else None,
-                  ls="--" if name == "before" else "-", label=name)
-    ax.axvspan(band[0], band[1], color="0.9", zorder=0, label=f"band {band[0]:g}-{band[1]:g} 1/mm")
-    units = next(iter(psds.values())).units
-    ax.set_xlabel("spatial frequency f (1/mm)")
-    ax.set_ylabel(f"PSD ({units})")
-    ax.set_title(title)
-    ax.legend(fontsize=8)
-    ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(file, dpi=110)
-    plt.close(fig)
-    return Path(file)
-
-
-def _plot_residual(res: SimulationResult, eval_bounds, file, name: str, max_px: int = 600) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    z = _crop(res.after_nm, res.origin_mm, res.dx_mm, eval_bounds).astype(np.float64)
-    step = max(1, int(np.ceil(z.shape[0] / max_px)))
-    z = z[::step, ::step]
-    z = z - z.mean()
-    lim = 3 * z.std() if z.std() > 0 else 1
-    fig, ax = plt.subplots(figsize=(5, 4.3))
-    ext = [eval_bounds[0], eval_bounds[0] + z.shape[1] * step * res.dx_mm,
-           eval_bounds[1], eval_bounds[1] + z.shape[0] * step * res.dx_mm]
-    im = ax.imshow(z, origin="lower", extent=ext, cmap="RdBu_r", vmin=-lim, vmax=lim)
-    fig.colorbar(im, ax=ax, label="residual height (nm), piston removed")
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    ax.set_title(f"after polishing: {name}")
-    fig.tight_layout()
-    fig.savefig(file, dpi=100)
-    plt.close(fig)
-    return Path(file)
 
 
 def _square_region(size_mm: float) -> Region:
@@ -319,10 +302,16 @@ def _square_region(size_mm: float) -> Region:
 def _dwell_s_per_point(tif, spacing_mm: float, removal_depth_nm: float):
     """Equal dwell time per point (s) that removes ``removal_depth_nm`` on a grid of ``spacing_mm``, and the tool.
 
-    A RotatingToolTIF keeps its nominal feed (``t = spacing / feed``) and has its
-    Preston coefficient rescaled to the depth; any other TIF keeps its rate and
-    gets ``t = depth * spacing^2 / volume rate``. Returns ``(t, tif, scale)``.
+    The tool moves at a feed a machine runs: a RotatingToolTIF's nominal feed,
+    else the job's default feed (:data:`polishpath.defaults.DEFAULT_FEED_MM_MIN`),
+    so ``t = spacing / feed`` (the machine timing and a noise correlated in time
+    see real speeds). The rate is scaled to the depth: a RotatingToolTIF's
+    Preston coefficient, for any other TIF by the comparison's exact rescaling
+    of the removal (``depth_nm`` of :func:`compare_paths`; the scale is only
+    recorded). Returns ``(t, tif, scale)``.
     """
+    from ..defaults import DEFAULT_FEED_MM_MIN
+
     if isinstance(tif, RotatingToolTIF):
         if not tif.feed_mm_min > 0:
             raise ParameterError("a rotating tool for the comparison needs a nominal feed > 0 mm/min.")
@@ -330,59 +319,105 @@ def _dwell_s_per_point(tif, spacing_mm: float, removal_depth_nm: float):
         scale = removal_depth_nm * spacing_mm**2 / (tif.volume_rate * t_point)
         return t_point, tif.scaled(scale), scale
     vol = tif.tifs[0].volume_rate if isinstance(tif, DirectionalTIF) else tif.volume_rate
-    return removal_depth_nm * spacing_mm**2 / vol, tif, None
+    t_point = spacing_mm / (DEFAULT_FEED_MM_MIN / 60.0)
+    return t_point, tif, removal_depth_nm * spacing_mm**2 / (vol * t_point)
 
 
-def compare_planned(planned: dict[str, PlanarPath], *, seed: int = 0, dx_mm: float = DEFAULT_DX_MM,
-                    tif: TIF | DirectionalTIF | None = None, noise: ProcessNoise | None = DEFAULT_NOISE,
-                    smoothing: Smoothing | None = DEFAULT_SMOOTHING, workpiece: Workpiece | None = None,
-                    initial_rms_nm: float = 2.0, initial_exponent: float = 2.5, removal_depth_nm: float = 200.0,
-                    band=PAPER_BAND_PER_MM, time_model: str = "segments", dwell: str = "equal",
-                    patch_bounds=None, out_dir=None, machine: dict | None = None,
-                    removal_dx_mm: float | None = None, plan_info: dict | None = None) -> dict[str, Any]:
-    """Simulate the same polishing along already planned paths and tabulate (Table 4 analogue).
+def check_comparison(*, seeds: int, mode: str, timing: str, time_model: str | None = None) -> None:
+    """Refuse a bad seed count, mode, timing or time model before any work (ParameterError naming the choices)."""
+    if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or not 1 <= seeds <= MAX_SEEDS:
+        raise ParameterError(f"the number of seeds must be a whole number from 1 to {MAX_SEEDS}, got {seeds!r}.",
+                             "Use e.g. --seeds 5 (seed i is the base seed + i).")
+    if mode not in MODES:
+        raise ParameterError(f"unknown comparison mode {mode!r}.", f"Use one of: {', '.join(MODES)}.")
+    if timing not in TIMINGS:
+        raise ParameterError(f"unknown timing {timing!r}.", f"Use one of: {', '.join(TIMINGS)}.")
+    if time_model is not None and time_model not in ("segments", "points", "machine"):
+        raise ParameterError(f"unknown time model {time_model!r}.", "Use one of: segments, points, machine.")
 
-    The paths are simulated in their own plane (the plane they were planned
-    in: for a part, its flattening). Every path gets the same tool, initial
-    surface, noise seed and mean depth.
+
+def _per_seed(pp, i: int, name: str):
+    if isinstance(pp, PlanarPath):
+        return pp
+    seq = list(pp)
+    if i >= len(seq):
+        raise ParameterError(f"{name!r} has {len(seq)} planned paths for more seeds.",
+                             "Give one PlanarPath per seed, or one for every seed.")
+    return seq[i]
+
+
+def _mean_psd(psds: list[PSD]) -> PSD:
+    p0 = psds[0]
+    return PSD(p0.freq, np.mean([p.psd for p in psds], axis=0), kind=p0.kind, units=p0.units,
+               params={**p0.params, "mean_over_seeds": len(psds)})
+
+
+def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, mode: str = "process",
+                    timing: str = "machine", machine=None, mechanisms: Mechanisms | None = None,
+                    dx_mm: float = DEFAULT_DX_MM, tif: TIF | DirectionalTIF | None = None,
+                    noise: ProcessNoise | None = DEFAULT_NOISE, smoothing: Smoothing | None = DEFAULT_SMOOTHING,
+                    workpiece: Workpiece | None = None, initial_rms_nm: float = 2.0, initial_exponent: float = 2.5,
+                    removal_depth_nm: float = 200.0, band=PAPER_BAND_PER_MM, time_model: str | None = None,
+                    dwell: str = "equal", patch_bounds=None, out_dir=None, removal_dx_mm: float | None = None,
+                    plan_info: dict | None = None) -> dict[str, Any]:
+    """The fair comparison of already planned paths over seeds (the Table 4 analogue, docs/simulation.md).
+
+    Every path removes the same mean depth (``removal_depth_nm``, inside the
+    evaluation window) from the same start with the same tool; its residual is
+    judged by :func:`~polishpath.simulate.fair.fair_metrics` (band RMS, lattice
+    peak, PVn) beside the paper's before/after suppression ratio. Seed i is
+    ``seed + i``: it plans the random paths (given per seed), draws the initial
+    surface and the process noise; a deterministic path is the same for every seed.
 
     Parameters
     ----------
-    planned : dict of name -> PlanarPath
-        The paths (``uv`` (N, 2) mm, ``pieces``, ``spacing`` the planar grid spacing, mm).
+    planned : dict of name -> PlanarPath or sequence of PlanarPath
+        The paths (``uv`` (N, 2) mm, ``pieces``, ``spacing`` the planar grid
+        spacing, mm): one for all seeds (deterministic), or one per seed.
     seed : int
-        Seed of the initial surface and the process noise.
+        Base seed.
+    seeds : int
+        Number of seeds (1..100).
+    mode : {"process", "interference-free"}
+        ``"process"``: a synthetic rough start, process noise and pad smoothing
+        (the defaults in docs/simulation.md). ``"interference-free"``: a flat
+        start and no noise, so only the path's own marks remain.
+    timing : {"machine", "ideal"}
+        ``"machine"``: the samples the job's smoothing stage (and, with
+        ``machine``, its feed schedule) would run, slow-downs included
+        (:func:`~polishpath.simulate.machinetime.machine_timed_path`);
+        ``"ideal"``: every dwell point's time spread along the path as asked.
+    machine : MachineProfile, str or dict, optional
+        A machine profile (or its name / TOML file) whose limits the machine
+        timing keeps; a dict is the legacy option set of ``time_model="machine"``.
+    mechanisms : Mechanisms, optional
+        Which effects are on (:mod:`polishpath.simulate.mechanisms`; default all).
     dx_mm : float
         Simulation pixel pitch, mm (5 um resolves 100 1/mm).
     tif : TIF, DirectionalTIF or RotatingToolTIF, optional
-        Default :func:`default_tif`: the paper's sponge spinning at 230 rpm
-        (parabolic pressure, 2 mm contact radius, feed 600 mm/min). The dwell
-        time per point follows from ``removal_depth_nm`` and each path's planar
-        spacing (:func:`_dwell_s_per_point`).
+        Default :func:`default_tif`. The dwell time per point follows from
+        ``removal_depth_nm`` and each path's planar spacing.
     noise, smoothing :
-        Process noise and smoothing (defaults in docs/simulation.md).
+        Process noise and smoothing of the process mode.
     workpiece : Workpiece, optional
-        Initial surface; default a synthetic power-law surface over ``patch_bounds``.
+        Initial surface for every seed (process mode); default a synthetic
+        power-law surface drawn with each seed.
     initial_rms_nm, initial_exponent : float
         Synthetic initial surface: RMS (nm) and 2D PSD exponent, band 0.2-100 1/mm.
     removal_depth_nm : float
-        Mean depth to remove, nm.
+        Mean depth every path removes, nm.
     band : (float, float)
         1/mm.
-    time_model : {"segments", "points", "machine"}
-        Continuous motion, stop-and-dwell, or the machine's constant-period
-        samples of the NURBS through the dwell points (:mod:`polishpath.smooth`).
+    time_model : {"segments", "points", "machine"}, optional
+        Overrides ``timing`` with a time model of :func:`simulate_removal`.
     dwell : {"equal", "feed"}
-        ``"equal"``: every dwell point gets the same time (the paper's dwell
-        points); ``"feed"``: constant feed along each path (time proportional to
-        path length, so diagonal steps get more), scaled to the same total
-        time per point as ``"equal"``.
+        ``"equal"``: every dwell point gets the same time; ``"feed"``: constant
+        feed along each path, scaled to the same total time per point.
     patch_bounds : (xmin, ymin, xmax, ymax), optional
-        Simulated patch, mm (default: the bounds of all paths). Path outside it
-        is dropped (counted in the per-path ``time_off_grid_s``).
+        Simulated patch, mm (default: the bounds of all paths).
     out_dir : str or Path, optional
-        Where to write the table, JSON, PSD plot and residual maps.
-    machine, removal_dx_mm :
+        Where to write the table, JSON and figures (:mod:`polishpath.simulate.comparefiles`).
+    removal_dx_mm :
         As :func:`compare_paths`.
     plan_info : dict, optional
         Per-path planning figures to record in ``params["plans"]``.
@@ -390,51 +425,119 @@ def compare_planned(planned: dict[str, PlanarPath], *, seed: int = 0, dx_mm: flo
     Returns
     -------
     dict
-        As :func:`compare_paths`, plus per-row ``pattern`` and ``planar_spacing_mm``.
+        ``rows`` (per path: each of ``residual_band_rms_nm``, ``lattice_peak_db``,
+        ``pvn``, ``suppression_ratio`` as the mean and ``<key>_min`` / ``<key>_max``
+        over the seeds, ``per_seed``, ``random``, ``pattern``,
+        ``planar_spacing_mm``, timing figures), ``rankings`` (per figure, ties
+        where ranges overlap), ``params``, ``psds`` (mean over seeds),
+        ``residuals`` (first seed's maps), ``table``.
     """
+    check_comparison(seeds=seeds, mode=mode, timing=timing, time_model=time_model)
     if not planned:
         raise ParameterError("no planned path to compare.", "Give at least one pattern.")
-    base_tif = tif or default_tif()
+    mech = mechanisms or Mechanisms()
+    if not mech.slowdown:
+        timing = "ideal"
+    legacy_machine = machine if isinstance(machine, dict) else None
+    profile = None if isinstance(machine, dict) else machine
+    if profile is not None:
+        from ..schedule import load_machine
+
+        profile = load_machine(profile)
+    first = {name: _per_seed(pp, 0, name) for name, pp in planned.items()}
     if patch_bounds is None:
-        allp = np.concatenate([np.asarray(p.uv) for p in planned.values()])
+        allp = np.concatenate([np.asarray(p.uv) for p in first.values()])
         patch_bounds = (*allp.min(axis=0), *allp.max(axis=0))
     xmin, ymin, xmax, ymax = map(float, patch_bounds)
-    if workpiece is None:
-        workpiece = synthetic_workpiece((xmin, ymin, xmax, ymax), dx_mm, rms_nm=initial_rms_nm,
-                                        exponent=initial_exponent, band_per_mm=(0.2, 100.0), seed=seed)
-    spacings = {name: float(p.spacing) for name, p in planned.items()}
-    # one tool for every path: its rate is set by the first path's spacing (equal on a plane; on a part the
-    # planar spacings differ a little, and each path's dwell time keeps its depth)
+    spacings = {name: float(p.spacing) for name, p in first.items()}
     h0 = next(iter(spacings.values()))
-    t0_point, tif_used, tif_scale = _dwell_s_per_point(base_tif, h0, removal_depth_nm)
-    paths, t_points = {}, {}
-    for name, pp in planned.items():
-        xy, pieces = np.asarray(pp.uv), np.asarray(pp.pieces)
-        t_point = t0_point * (spacings[name] / h0) ** 2
-        if dwell == "equal":
-            times = np.full(len(xy), t_point)
-        elif dwell == "feed":
-            times = np.concatenate([dwell_from_feed(part, 60.0) if len(part) > 1 else np.ones(len(part))
-                                    for part in split_by_pieces(xy, pieces)])
-            times *= t_point * len(xy) / times.sum()
+    base_tif = tif or default_tif()
+    t0_point, tif_scaled, tif_scale = _dwell_s_per_point(base_tif, h0, removal_depth_nm)
+    tif_used = tool_with(tif_scaled, mech, dx_mm)
+    interference_free = mode == "interference-free"
+    noise_used = None if (interference_free or not mech.noise) else noise
+    smooth_used = None if not mech.smoothing else smoothing
+    inset = _reach(tif_scaled) + h0
+    eval_bounds = (xmin + inset, ymin + inset, xmax - inset, ymax - inset)
+    tm_all = time_model or ("segments" if timing == "ideal" else "moves")
+    machine_cache: dict[int, tuple] = {}
+    per_seed, psd_lists, timing_info, seed_list = [], {}, {}, [seed + i for i in range(seeds)]
+    out1 = None
+    for i, s_i in enumerate(seed_list):
+        if interference_free:
+            wp = flat_workpiece((xmin, ymin, xmax, ymax), dx_mm)
+        elif workpiece is not None:
+            wp = workpiece
         else:
-            raise ParameterError(f"unknown dwell mode {dwell!r}.", "Use 'equal' or 'feed'.")
-        paths[name] = (xy, times, pieces)
-        t_points[name] = t_point
-    out = compare_paths(paths, workpiece, tif_used, noise=noise, smoothing=smoothing, seed=seed, band=band,
-                        spacing_mm=h0, out_dir=out_dir, time_model=time_model, machine=machine,
-                        removal_dx_mm=removal_dx_mm)
-    for r in out["rows"]:
+            wp = synthetic_workpiece((xmin, ymin, xmax, ymax), dx_mm, rms_nm=initial_rms_nm,
+                                     exponent=initial_exponent, band_per_mm=(0.2, 100.0), seed=s_i)
+        paths, wished = {}, {}
+        for name, pp in planned.items():
+            p = _per_seed(pp, i, name)
+            xy, pieces = np.asarray(p.uv), np.asarray(p.pieces)
+            times = _dwell_times(xy, pieces, t0_point * (float(p.spacing) / h0) ** 2, dwell)
+            wished[name] = float(times.sum())
+            if tm_all == "moves":
+                key = id(p)
+                if key not in machine_cache:
+                    machine_cache[key] = machine_timed_path(xy, times, pieces, spacing_mm=float(p.spacing),
+                                                            machine=profile)
+                tp, info = machine_cache[key]
+                paths[name] = (tp.xy, tp.time_s, tp.pieces, "moves")
+                timing_info.setdefault(name, []).append(info)
+            else:
+                paths[name] = (xy, times, pieces, tm_all)
+        o = compare_paths(paths, wp, tif_used, noise=noise_used, smoothing=smooth_used, seed=s_i, band=band,
+                          spacing_mm=h0, eval_bounds=eval_bounds, time_model=tm_all, machine=legacy_machine,
+                          removal_dx_mm=removal_dx_mm, depth_nm=removal_depth_nm)
+        for r in o["rows"]:  # total_time_s: the dwell times asked; the machine's own time beside it
+            r["machine_time_s"] = r["total_time_s"] if r["time_model"] == "moves" else None
+            r["total_time_s"] = wished[r["name"]]
+        per_seed.append(o["rows"])
+        for k, v in o["psds"].items():
+            psd_lists.setdefault(k, []).append(v)
+        if out1 is None:
+            out1 = o
+    rows = aggregate_rows(per_seed, seed_list)
+    for r in rows:
+        p0 = first[r["name"]]
         r["pattern"] = r["name"]
+        r["random"] = not isinstance(planned[r["name"]], PlanarPath)
         r["planar_spacing_mm"] = spacings[r["name"]]
-        r["dwell_s_per_point"] = t_points[r["name"]]
-    out["params"].update({"dwell": dwell, "patterns": list(planned), "spacing_mm": h0,
-                          "dwell_s_per_point": t0_point, "removal_depth_nm": removal_depth_nm,
-                          "plans": plan_info or {}, "tif_rate_scale": tif_scale,
-                          "region_bounds_mm": [xmin, ymin, xmax, ymax]})
+        r["dwell_s_per_point"] = t0_point * (spacings[r["name"]] / h0) ** 2
+        r["n_points"] = int(p0.n_points)
+        if r["name"] in timing_info:
+            infos = timing_info[r["name"]]
+            r["machine_timing"] = infos[0] if len(infos) == 1 or not r["random"] else {
+                **infos[0], "time_increase": spread([x["time_increase"] for x in infos])[0]}
+    rankings = {k: rank(rows, k) for k in FAIR_KEYS}
+    params = dict(out1["params"])
+    params.update({"mode": mode, "timing": time_model or timing, "time_model": tm_all, "seeds": seed_list,
+                   "seed": seed, "n_seeds": seeds, "machine_profile": None if profile is None else profile.name,
+                   "machine": profile.to_dict() if profile is not None else legacy_machine,
+                   "mechanisms": mech.to_dict(), "dwell": dwell, "patterns": list(planned), "spacing_mm": h0,
+                   "dwell_s_per_point": t0_point, "removal_depth_nm": removal_depth_nm, "plans": plan_info or {},
+                   "tif_rate_scale": tif_scale, "region_bounds_mm": [xmin, ymin, xmax, ymax],
+                   "random_patterns": [r["name"] for r in rows if r["random"]],
+                   "workpiece": out1["params"]["workpiece"] if workpiece is not None or interference_free
+                   else {**out1["params"]["workpiece"], "seeds": seed_list}})
+    units = params["units"]
+    out = {"rows": rows, "rankings": rankings, "params": params,
+           "psds": {k: _mean_psd(v) for k, v in psd_lists.items()}, "residuals": out1["residuals"],
+           "table": format_table(rows, units, params=params, rankings=rankings)}
     if out_dir is not None:
-        write_outputs(out, out_dir)  # again, now with the planning parameters
+        write_outputs(out, out_dir)
     return out
+
+
+def _dwell_times(xy: np.ndarray, pieces: np.ndarray, t_point: float, dwell: str) -> np.ndarray:
+    if dwell == "equal":
+        return np.full(len(xy), t_point)
+    if dwell == "feed":
+        times = np.concatenate([dwell_from_feed(part, 60.0) if len(part) > 1 else np.ones(len(part))
+                                for part in split_by_pieces(xy, pieces)])
+        return times * (t_point * len(xy) / times.sum())
+    raise ParameterError(f"unknown dwell mode {dwell!r}.", "Use 'equal' or 'feed'.")
 
 
 def patch_bounds_at_centre(region: Region, patch_mm: float | None):
@@ -449,12 +552,14 @@ def patch_bounds_at_centre(region: Region, patch_mm: float | None):
 
 def compare_patterns(region_or_size: Region | float = 20.0,
                      patterns=("pseudorandom", "raster", "spiral", "rectangular"), spacing: float = 0.5,
-                     seed: int = 0, *, patch_mm: float | None = None, **kw) -> dict[str, Any]:
+                     seed: int = 0, *, seeds: int = 5, patch_mm: float | None = None, **kw) -> dict[str, Any]:
     """Plan each pattern in a planar region, then :func:`compare_planned` (the Table 4 analogue on a plane).
 
-    For a part, plan on it through :func:`polishpath.pipeline.plan_on_surface`
-    (spacing on the part) and call :func:`compare_planned`, as
-    ``polishpath simulate SURFACE`` does.
+    A random pattern (:data:`polishpath.plan.RANDOM_PATTERNS`: the pseudo-random
+    planner, the Table 3 peers) is planned once per seed (``seed + i``), a
+    deterministic one once. For a part, plan on it through
+    :func:`polishpath.pipeline.plan_on_surface` (spacing on the part) and call
+    :func:`compare_planned`, as ``polishpath simulate SURFACE`` does.
 
     Parameters
     ----------
@@ -465,27 +570,32 @@ def compare_patterns(region_or_size: Region | float = 20.0,
     spacing : float
         Dwell-point spacing in the plane, mm.
     seed : int
-        Seed of the planner, the initial surface and the process noise.
+        Base seed of the planner, the initial surface and the process noise.
+    seeds : int
+        Number of seeds.
     patch_mm : float, optional
         Simulate only a centred square of this side (mm) at the region's
         centroid while planning over the whole region.
     **kw :
-        Everything else of :func:`compare_planned` (tif, noise, dx_mm, time_model ...).
+        Everything else of :func:`compare_planned` (mode, timing, tif, noise, dx_mm ...).
 
     Returns
     -------
     dict
-        As :func:`compare_planned`; ``params["plans"]`` has each plan's provenance.
+        As :func:`compare_planned`; ``params["plans"]`` has each plan's provenance (first seed).
     """
-    from ..plan import plan  # the planning stage, looked up at call time
+    from ..plan import RANDOM_PATTERNS, plan  # the planning stage, looked up at call time
 
+    check_comparison(seeds=seeds, mode=kw.get("mode", "process"), timing=kw.get("timing", "machine"))
     region = region_or_size if isinstance(region_or_size, Region) else _square_region(float(region_or_size))
     planned, info = {}, {}
     for pat in patterns:
         tp = time.perf_counter()
-        pp = plan(region, spacing, pat, seed=seed)
-        planned[pat] = pp
-        info[pat] = {"n_points": int(pp.n_points), "n_unreached": int(len(pp.unreached)),
-                     "provenance": pp.provenance.to_dict(), "seconds": time.perf_counter() - tp}
-    return compare_planned(planned, seed=seed, patch_bounds=patch_bounds_at_centre(region, patch_mm),
+        random = pat in RANDOM_PATTERNS
+        pps = [plan(region, spacing, pat, seed=seed + i) for i in range(seeds if random else 1)]
+        planned[pat] = pps if random else pps[0]
+        info[pat] = {"n_points": int(pps[0].n_points), "n_unreached": int(len(pps[0].unreached)),
+                     "random": random, "seeds": [seed + i for i in range(len(pps))],
+                     "provenance": pps[0].provenance.to_dict(), "seconds": time.perf_counter() - tp}
+    return compare_planned(planned, seed=seed, seeds=seeds, patch_bounds=patch_bounds_at_centre(region, patch_mm),
                            plan_info=info, **kw)

@@ -71,6 +71,11 @@ def format_job_table(summary: dict[str, Any], run_name: str = "") -> str:
         pk = ", ".join(f"{d['freq_per_mm']:.3g}/mm{(' ' + d['label']) if d['label'] else ''}" for d in s["peaks"][:3])
         lines.append(f"centre square {x1 - x0:.1f} x {y1 - y0:.1f} mm: band RMS ({lo:g}-{hi:g} 1/mm) "
                      f"{s['band_rms_nm']:.4g} nm; PSD peaks: {pk or 'none'}")
+        f = s.get("fair")
+        if f is not None:
+            lines.append(f"fair figures of its residual (mean / tilt / power removed): band RMS "
+                         f"{f['residual_band_rms_nm']:.4g} nm, lattice peak {f['lattice_peak_db']:.3g} dB over the "
+                         f"background (spacing {f['spacing_mm']:g} mm), PVn {f['pvn']:.3g} (PV / depth)")
     else:
         lines.append("centre square: too small for a PSD (under 64 px)")
     return "\n".join(lines) + "\n"
@@ -104,11 +109,13 @@ def write_job_outputs(out: dict[str, Any], folder, run_name: str = "") -> dict[s
     written["removal"] = _map_png(out, d / "removal.png", residual=False, run_name=run_name)
     written["residual"] = _map_png(out, d / "residual.png", residual=True, run_name=run_name)
     if out["psd"] is not None:
-        from .compare import plot_psds
+        from .comparefiles import plot_psds
 
         lo, hi = out["summary"]["band_per_mm"]
+        sp = (out["summary"].get("fair") or {}).get("spacing_mm")
         written["psd"] = plot_psds({"after (centre square)": out["psd"]}, d / "psd.png", band=(lo, hi),
-                                   title=f"Simulated profile PSD, {run_name or 'the job'}'s own path")
+                                   title=f"Simulated profile PSD, {run_name or 'the job'}'s own path",
+                                   spacings={"after (centre square)": sp})
     return written
 
 

@@ -131,7 +131,9 @@ def timed_path(path: SurfacePath | ToolPath, *, timing: str = "machine", plane: 
     timing : {"machine", "dwell"}
         ``"machine"`` (ToolPath only): the constant-period samples, each move
         one interpolation period long, so the slow-downs the feed schedule
-        needs at turns are in. ``"dwell"``: the dwell points, each with its
+        needs at turns are in (a path scheduled under a machine profile,
+        ``stats["machine_schedule"]``: each move at its scheduled speed, so the
+        machine's acceleration slow-downs are in too). ``"dwell"``: the dwell points, each with its
         time spread along the path around it (``dwell_s``, or the ToolPath's
         ``dwell_times``, the times the schedule aimed at).
     plane : {"xy", "unrolled"}
@@ -172,6 +174,12 @@ def timed_path(path: SurfacePath | ToolPath, *, timing: str = "machine", plane: 
         if not T > 0:
             raise ParameterError(f"the tool path's period must be > 0 ms, got {tp.period_ms}.")
         t = np.full(m, T)
+        scheduled = "machine_schedule" in tp.stats
+        if scheduled:  # a machine profile's feeds: move k -> k+1 runs at the speed arriving at sample k+1
+            s = np.asarray(tp.samples, dtype=np.float64)
+            v = np.asarray(tp.feed_mm_min, dtype=np.float64)[1:] / 60.0
+            ln = np.linalg.norm(np.diff(s, axis=0), axis=1)
+            t[:-1] = np.where(v > 0, ln / np.maximum(v, 1e-300), 0.0)
         t[pieces[1:] - 1] = 0.0  # the last sample of a piece starts no move
         if plane == "xy":
             xy = np.asarray(tp.samples)[:, :2]
@@ -184,6 +192,7 @@ def timed_path(path: SurfacePath | ToolPath, *, timing: str = "machine", plane: 
                                      "dwell points.", "Use plane='xy', or pass the ToolPath the job made.")
             xy = np.column_stack([np.interp(u, dp, uv[:, 0]), np.interp(u, dp, uv[:, 1])])
         info = {"source": "ToolPath.samples", "n_points": int(m), "period_ms": float(tp.period_ms),
+                "scheduled": scheduled,
                 "total_time_s": float(t.sum()), "n_pieces": int(len(pieces) - 1)}
         return TimedPath(xy, t, pieces, "moves", plane, timing, info)
     n = len(sp.xyz)
@@ -400,7 +409,9 @@ def simulate_job(tool_path: ToolPath, surface: Surface, *, flattening: Flattenin
         ((Ny, Nx) bool: inside the part, away from its edge by the tool's
         reach), ``region``, ``plane``, ``plane_reason``, ``summary`` (JSON-ready
         figures: time, depth mean / RMS / PV inside, band RMS and peaks of the
-        centre square, all parameters) and ``psd`` (PSD of the centre square or None).
+        centre square, ``fair``: the fair figures of its residual (band RMS,
+        lattice peak, PVn; :func:`~polishpath.simulate.fair.fair_metrics`; None
+        when it is too small), all parameters) and ``psd`` (PSD of the centre square or None).
     """
     from ..psd.core import PAPER_BAND_PER_MM, band_rms, find_peaks
     from .compare import default_tif, profile_psd
@@ -439,7 +450,15 @@ def simulate_job(tool_path: ToolPath, surface: Surface, *, flattening: Flattenin
     res = replace(res, removal_nm=removal, after_nm=(np.asarray(wp.height_nm, np.float32) - removal),
                   stats={**res.stats, "tif_rate_scale": scale})
     inside = removal[mask].astype(np.float64)
-    psd, peaks, brms, square = _centre_square_psd(res, mask, band, spacing_mm, profile_psd, band_rms, find_peaks)
+    psd, peaks, brms, square, zc = _centre_square_psd(res, mask, band, spacing_mm, profile_psd, band_rms, find_peaks)
+    fair = None
+    if zc is not None:  # the fair figures of the centre square's residual (polishpath.simulate.fair)
+        from .fair import fair_metrics
+
+        fm = fair_metrics(np.asarray(zc, dtype=np.float64), dx_mm, spacing_mm or 0.5, depth_nm, band=band)
+        fair = {"residual_band_rms_nm": fm.residual_band_rms_nm, "lattice_peak_db": fm.lattice_peak_db,
+                "pvn": fm.pvn, "residual_rms_nm": fm.residual_rms_nm, "residual_pv_nm": fm.residual_pv_nm,
+                "spacing_mm": spacing_mm or 0.5}
     summary = {
         "plane": plane, "plane_reason": reason, "timing": timing, "time_model": tpath.time_model,
         "path": tpath.info, "total_time_s": res.stats["total_time_s"],
@@ -448,7 +467,7 @@ def simulate_job(tool_path: ToolPath, surface: Surface, *, flattening: Flattenin
         "depth_mean_nm": float(inside.mean()), "depth_rms_nm": float(inside.std()),
         "depth_pv_nm": float(inside.max() - inside.min()),
         "depth_rms_rel": float(inside.std() / inside.mean()) if inside.mean() > 0 else 0.0,
-        "centre_square_mm": square, "band_per_mm": list(band), "band_rms_nm": brms, "peaks": peaks,
+        "centre_square_mm": square, "band_per_mm": list(band), "band_rms_nm": brms, "peaks": peaks, "fair": fair,
         "tif_rate_scale": scale, "seed": seed, "noise": None if noise is None else vars(noise).copy(),
         "tif": {"kind": tif.kind, **tif.params} if not isinstance(tif, DirectionalTIF)
         else {"kind": "directional", **tif.params},
@@ -472,11 +491,11 @@ def _centre_square_psd(res, mask, band, spacing_mm, profile_psd, band_rms, find_
         else:
             hi = mid - 1
     if 2 * h + 1 < 64:
-        return None, [], None, None
+        return None, [], None, None, None
     z = res.after_nm[cj - h:cj + h + 1, ci - h:ci + h + 1]
     psd = profile_psd(z, res.dx_mm)
     o, dx = res.origin_mm, res.dx_mm
     square = [float(o[0] + (ci - h) * dx), float(o[1] + (cj - h) * dx), float(o[0] + (ci + h) * dx),
               float(o[1] + (cj + h) * dx)]
     peaks = find_peaks(psd, spacing_mm, band=band)
-    return psd, peaks, float(band_rms(psd, *band)), square
+    return psd, peaks, float(band_rms(psd, *band)), square, z
