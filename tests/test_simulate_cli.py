@@ -39,6 +39,9 @@ def test_simulate_run_dir_uses_the_runs_own_path(small_run):
     assert res["depth_mean_nm"] == pytest.approx(200.0, rel=1e-6)
     html = (out / "report.html").read_text()  # the run's report shows the simulation
     assert "removal.png" in html and "depth inside the part" in html
+    # the fair figures of the centre square's residual (issue 18, item 4)
+    assert "fair figures of its residual" in r.output and "Fair figures of the centre square" in html
+    assert res["fair"]["residual_band_rms_nm"] > 0 and res["fair"]["pvn"] > 0
 
 
 def test_simulate_run_dir_dwell_timing_and_json(small_run):
@@ -70,7 +73,7 @@ def test_simulate_bad_input_exits_2_with_a_message(small_run, tmp_path):
 
 def test_simulate_surface_plans_with_the_spacing_on_the_part(tmp_path):
     args = ["simulate", DOME, "--patterns", "raster,pseudorandom", "--spacing", "1", "--patch", "8", "--dx", "0.05",
-            "--fwhm", "1", "--seed", "2", "-o", str(tmp_path / "cmp"), "--json"]
+            "--fwhm", "1", "--seed", "2", "--seeds", "2", "-o", str(tmp_path / "cmp"), "--json"]
     r = runner.invoke(app, args)
     assert r.exit_code == 0, r.output
     js = json.loads(r.output)
@@ -92,3 +95,38 @@ def test_simulate_surface_plans_with_the_spacing_on_the_part(tmp_path):
     assert r3.exit_code == 0, r3.output
     assert json.loads(r3.output)["params"]["plans"]["raster"]["planar_spacing_mm"] == 1.0
     assert np.isfinite([row["suppression_ratio"] for row in json.loads(r3.output)["rows"]]).all()
+    # the fair figures with their spread over the seeds (issue 18: the json keys)
+    assert js["params"]["seeds"] == [2, 3] and js["params"]["mode"] == "process"
+    assert js["params"]["timing"] == "machine"  # the default: the job's own samples
+    assert plans["pseudorandom"]["seeds"] == [2, 3] and plans["raster"]["seeds"] == [2]
+    for row in js["rows"]:
+        for k in ("residual_band_rms_nm", "lattice_peak_db", "pvn", "suppression_ratio"):
+            assert row[f"{k}_min"] <= row[k] <= row[f"{k}_max"], (row["name"], k)
+        assert [p["seed"] for p in row["per_seed"]] == [2, 3]
+    assert set(js["rankings"]) == {"residual_band_rms_nm", "lattice_peak_db", "pvn", "suppression_ratio"}
+    assert (tmp_path / "cmp" / "residuals.png").stat().st_size > 0
+
+
+def test_simulate_surface_interference_free_without_mechanisms(tmp_path):
+    r = runner.invoke(app, ["simulate", "saddle:size=12,R=1000,triangles=400", "--patterns", "raster",
+                            "--spacing-on", "plane", "--patch", "8", "--dx", "0.04", "--fwhm", "0.6", "--seeds", "3",
+                            "--mode", "interference-free", "--timing", "ideal", "--without", "smoothing",
+                            "-o", str(tmp_path / "cmp"), "--json"])
+    assert r.exit_code == 0, r.output
+    js = json.loads(r.output)
+    row = js["rows"][0]
+    assert js["params"]["mode"] == "interference-free" and js["params"]["noise"] is None
+    assert js["params"]["mechanisms"]["off"] == ["smoothing"]
+    # a deterministic path from a flat start without noise: the same figures for every seed, no suppression
+    assert row["residual_band_rms_nm_min"] == row["residual_band_rms_nm_max"] and row["suppression_ratio"] is None
+
+
+@pytest.mark.parametrize("args, word", [
+    (["--seeds", "0"], "seeds"), (["--seeds", "500"], "seeds"), (["--mode", "vacuum"], "mode"),
+    (["--timing", "soon"], "timing"), (["--without", "gravity"], "mechanism"),
+    (["--machine", "no-such-machine.toml"], "machine"), (["--time-model", "teleport"], "time model")])
+def test_simulate_surface_bad_options_exit_2_before_work(tmp_path, args, word):
+    r = runner.invoke(app, ["simulate", DOME, "--patterns", "raster", "-o", str(tmp_path / "x"), *args])
+    assert r.exit_code == 2, r.output
+    assert word in r.output and "Traceback" not in r.output
+    assert not (tmp_path / "x").exists()

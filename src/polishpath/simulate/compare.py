@@ -23,7 +23,7 @@ from ..pathops import split_by_pieces
 from ..types import PlanarPath, Region
 from .motion import dwell_from_feed
 from .comparefiles import format_table, plot_psds, write_outputs
-from .machinetime import TIMINGS, machine_timed_path
+from .machinetime import COMPARE_TIMINGS, machine_timed_path
 from .mechanisms import Mechanisms, tool_with
 from .removal import ProcessNoise, SimulationResult, Smoothing, simulate_removal, smooth_surface
 from .rotating import RotatingToolTIF, rotating_tool_tif
@@ -330,8 +330,8 @@ def check_comparison(*, seeds: int, mode: str, timing: str, time_model: str | No
                              "Use e.g. --seeds 5 (seed i is the base seed + i).")
     if mode not in MODES:
         raise ParameterError(f"unknown comparison mode {mode!r}.", f"Use one of: {', '.join(MODES)}.")
-    if timing not in TIMINGS:
-        raise ParameterError(f"unknown timing {timing!r}.", f"Use one of: {', '.join(TIMINGS)}.")
+    if timing not in COMPARE_TIMINGS:
+        raise ParameterError(f"unknown timing {timing!r}.", f"Use one of: {', '.join(COMPARE_TIMINGS)}.")
     if time_model is not None and time_model not in ("segments", "points", "machine"):
         raise ParameterError(f"unknown time model {time_model!r}.", "Use one of: segments, points, machine.")
 
@@ -473,6 +473,8 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                                      exponent=initial_exponent, band_per_mm=(0.2, 100.0), seed=s_i)
         paths, wished = {}, {}
         for name, pp in planned.items():
+            if i > 0 and interference_free and isinstance(pp, PlanarPath):
+                continue  # flat start, no noise, the same path: the seed changes nothing (tested), reuse seed 0
             p = _per_seed(pp, i, name)
             xy, pieces = np.asarray(p.uv), np.asarray(p.pieces)
             times = _dwell_times(xy, pieces, t0_point * (float(p.spacing) / h0) ** 2, dwell)
@@ -489,11 +491,19 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                 paths[name] = (xy, times, pieces, tm_all)
         o = compare_paths(paths, wp, tif_used, noise=noise_used, smoothing=smooth_used, seed=s_i, band=band,
                           spacing_mm=h0, eval_bounds=eval_bounds, time_model=tm_all, machine=legacy_machine,
-                          removal_dx_mm=removal_dx_mm, depth_nm=removal_depth_nm)
+                          removal_dx_mm=removal_dx_mm, depth_nm=removal_depth_nm) if paths else \
+            {"rows": [], "psds": {}}
         for r in o["rows"]:  # total_time_s: the dwell times asked; the machine's own time beside it
             r["machine_time_s"] = r["total_time_s"] if r["time_model"] == "moves" else None
             r["total_time_s"] = wished[r["name"]]
-        per_seed.append(o["rows"])
+        got = {r["name"]: r for r in o["rows"]}
+        if i > 0:  # the reused rows and PSDs of the first seed
+            got = {name: got.get(name) or {**first_rows[name], "seconds": 0.0, "reused_seed": seed_list[0]}
+                   for name in planned}
+            o["psds"] = {k: o["psds"].get(k, psd_lists[k][0]) for k in psd_lists}
+        else:
+            first_rows = got
+        per_seed.append([got[name] for name in planned])
         for k, v in o["psds"].items():
             psd_lists.setdefault(k, []).append(v)
         if out1 is None:

@@ -28,10 +28,10 @@ from ..pathops import piece_offsets
 from ..types import PlanarPath, Provenance, SurfacePath
 from .jobpath import TimedPath, timed_path
 
-__all__ = ["TIMINGS", "machine_timed_path"]
+__all__ = ["COMPARE_TIMINGS", "machine_timed_path"]
 
 #: the timings of a comparison
-TIMINGS = ("machine", "ideal")
+COMPARE_TIMINGS = ("machine", "ideal")
 
 
 def machine_timed_path(xy, dwell_s, pieces=None, *, spacing_mm: float = 0.5, machine=None,
@@ -110,6 +110,6 @@ def machine_timed_path(xy, dwell_s, pieces=None, *, spacing_mm: float = 0.5, mac
             "feed_min_mm_min": float(feeds[feeds > 0].min()) if (feeds > 0).any() else 0.0,
             "feed_max_mm_min": float(feeds.max()), "n_samples": int(len(tp.samples))}
     if sched is not None:
-        info["schedule"] = {k: sched[k] for k in ("limited_share", "limited_by", "time_increase",
-                                                   "dwell_time_error")}
+        keep = ("machining_time_s", "limited_share", "limited_by", "time_increase", "dwell_time_error")
+        info["schedule"] = {k: sched[k] for k in keep}
     return timed, info
