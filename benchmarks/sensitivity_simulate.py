@@ -1,10 +1,19 @@
-"""Sensitivity of the simulated path ranking to the tool (size, pressure, rpm/feed), time model, noise, spacing, seed.
+"""Sensitivity of the simulated path ranking: which mechanism decides it, and the tool, timing, noise, spacing.
 
-Prints a Markdown table (suppression ratio of the band-average PSD, 1-100 1/mm,
-per pattern, and the resulting ranking) for docs/simulation.md. Plans are
-computed once per (spacing, seed) and reused.
+``--study mechanisms`` (default): the fair comparison with every mechanism on,
+then with each one switched off on its own (:class:`polishpath.simulate.Mechanisms`:
+footprint, edge, smoothing, noise, slowdown), and in interference-free mode,
+over N seeds; prints a Markdown table per figure (residual band RMS, lattice
+peak, PVn, paper-style suppression; mean per path) and the rankings, for
+docs/simulation.md ("Which mechanism decides the ranking").
 
-    PYTHONPATH=src python benchmarks/sensitivity_simulate.py [--size 10] [--dx 0.005] [--only N,M]
+``--study tool``: the older sensitivity cases (tool size, pressure, feed, time
+model, noise, spacing, the Gaussian tool), one seed each, now with the band RMS
+ranking beside the suppression ratio. Plans are computed once per (spacing,
+seed) and reused.
+
+    PYTHONPATH=src python benchmarks/sensitivity_simulate.py [--study mechanisms|tool] [--size 10] [--dx 0.005]
+        [--seeds 3] [--only N,M]
 """
 
 from __future__ import annotations
@@ -53,29 +62,72 @@ def _memoize_planner():
     P.plan = plan
 
 
+MECH_CASES = (("all mechanisms on (process mode, machine timing)", (), "process"),
+              ("footprint off (zero-feed footprint)", ("footprint",), "process"),
+              ("edge off (smooth Gaussian pressure)", ("edge",), "process"),
+              ("smoothing off", ("smoothing",), "process"),
+              ("noise off (no process drift)", ("noise",), "process"),
+              ("slowdown off (ideal timing)", ("slowdown",), "process"),
+              ("interference-free (flat start, no noise)", (), "interference-free"))
+FIGS = (("residual_band_rms_nm", "residual band RMS (nm)", 1.0), ("lattice_peak_db", "lattice peak (dB)", 1.0),
+        ("pvn", "PVn", 1.0), ("suppression_ratio", "paper-style suppression (%)", 100.0))
+
+
+def mechanisms_study(a, only) -> None:
+    from polishpath.simulate import Mechanisms
+
+    results = []
+    t0 = time.perf_counter()
+    for i, (name, off, mode) in enumerate(MECH_CASES):
+        if only is not None and i not in only:
+            continue
+        tc = time.perf_counter()
+        out = compare_patterns(a.size, PATTERNS, 0.5, 0, seeds=a.seeds, dx_mm=a.dx, mode=mode,
+                               mechanisms=Mechanisms().without(off))
+        results.append((name, out))
+        print(f"{name}: {time.perf_counter() - tc:.0f} s; " + "; ".join(
+            f"{k}: {rk['text']}" for k, rk in out["rankings"].items()), flush=True)
+    print(f"\npatch {a.size:g} mm at {1000 * a.dx:g} um, {a.seeds} seeds, {time.perf_counter() - t0:.0f} s\n")
+    for key, label, f in FIGS:
+        print(f"**{label}** (mean over the seeds; ranking best first, [a ~ b]: ranges overlap)\n")
+        print("| case | " + " | ".join(PATTERNS) + " | ranking |")
+        print("|---|" + "---|" * (len(PATTERNS) + 1))
+        for name, out in results:
+            rows = {r["name"]: r for r in out["rows"]}
+            cells = " | ".join("–" if rows[p].get(key) is None else f"{f * rows[p][key]:.3g}" for p in PATTERNS)
+            print(f"| {name} | {cells} | {out['rankings'][key]['text']} |")
+        print()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--study", default="mechanisms", choices=["mechanisms", "tool"])
     ap.add_argument("--size", type=float, default=10.0)
     ap.add_argument("--dx", type=float, default=0.005)
+    ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--only", default=None, help="comma-separated case numbers (0-based)")
     a = ap.parse_args(argv)
     _memoize_planner()
     only = None if a.only is None else {int(v) for v in a.only.split(",")}
-    head = "| case | " + " | ".join(PATTERNS) + " | ranking (best first) |"
+    if a.study == "mechanisms":
+        mechanisms_study(a, only)
+        return
+    head = "| case | " + " | ".join(PATTERNS) + " | ranking by suppression | ranking by band RMS |"
     print(f"patch {a.size:g} mm at {1000 * a.dx:g} um; suppression ratio 1 - after/before of the band-average "
           f"profile PSD in 1-100 1/mm", flush=True)
-    lines = [head, "|" + "---|" * (len(PATTERNS) + 2)]
+    lines = [head, "|" + "---|" * (len(PATTERNS) + 3)]
     t0 = time.perf_counter()
     for i, (name, c) in enumerate(configs()):
         if only is not None and i not in only:
             continue
         tif = gaussian_tif(fwhm_mm=c["gauss"]) if c["gauss"] else rotating_tool_tif(**c["tif"])
         kw = {} if c["noise"] == "default" else {"noise": c["noise"]}
-        out = compare_patterns(a.size, PATTERNS, c["spacing"], c["seed"], dx_mm=a.dx, tif=tif,
+        out = compare_patterns(a.size, PATTERNS, c["spacing"], c["seed"], seeds=1, dx_mm=a.dx, tif=tif,
                                time_model=c["time_model"], **kw)
         sr = {r["name"]: r["suppression_ratio"] for r in out["rows"]}
         rank = " > ".join(sorted(sr, key=lambda k: -sr[k]))
-        lines.append(f"| {name} | " + " | ".join(f"{100 * sr[p]:.1f} %" for p in PATTERNS) + f" | {rank} |")
+        lines.append(f"| {name} | " + " | ".join(f"{100 * sr[p]:.1f} %" for p in PATTERNS)
+                     + f" | {rank} | {out['rankings']['residual_band_rms_nm']['text']} |")
         print(lines[-1], flush=True)
     print()
     print(f"planner: polishpath.plan.plan; {time.perf_counter() - t0:.0f} s")
