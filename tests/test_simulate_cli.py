@@ -130,3 +130,19 @@ def test_simulate_surface_bad_options_exit_2_before_work(tmp_path, args, word):
     assert r.exit_code == 2, r.output
     assert word in r.output and "Traceback" not in r.output
     assert not (tmp_path / "x").exists()
+
+
+def test_report_of_a_run_with_a_comparison_shows_both_figures(small_run, tmp_path):
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(small_run[0], run)
+    r = runner.invoke(app, ["simulate", DOME, "--patterns", "raster,pseudorandom", "--spacing", "1", "--patch", "8",
+                            "--dx", "0.05", "--fwhm", "1", "--seeds", "2", "--timing", "ideal", "-o", str(run), "-q"])
+    assert r.exit_code == 0, r.output
+    for f in ("residuals.png", "psd.png", "results.json"):
+        assert (run / "simulation" / f).stat().st_size > 0, f
+    html = (run / "report.html").read_text()
+    # the residual maps side by side and the PSDs with the lattice frequencies marked, and the fair table
+    assert "Residual maps side by side" in html and "lattice frequencies marked" in html
+    assert "Fair figures of each path" in html and "not distinguishable" in html

@@ -10,7 +10,8 @@ import pytest
 from polishpath.errors import ParameterError, SpecError
 from polishpath.plan import plan
 from polishpath.simulate import compare_planned, gaussian_tif, rotating_tool_tif
-from polishpath.simulate.compare import _square_region, check_comparison
+from polishpath.simulate.compare import check_comparison
+from polishpath.simulate.patterns import square_region
 from polishpath.simulate.machinetime import machine_timed_path
 from polishpath.simulate.mechanisms import Mechanisms, parse_mechanisms, smooth_edge_tif, zero_feed_tif
 from polishpath.simulate.spread import aggregate_rows, rank
@@ -21,7 +22,7 @@ FAIR = ("residual_band_rms_nm", "lattice_peak_db", "pvn", "suppression_ratio")
 
 
 def _plans(pattern, seeds, seed=0):
-    region = _square_region(SIZE)
+    region = square_region(SIZE)
     return [plan(region, H, pattern, seed=seed + i) for i in range(seeds)]
 
 

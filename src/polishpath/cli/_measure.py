@@ -140,7 +140,7 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
     from ..pipeline import plan_on_surface
     from ..errors import PatchTooSmallError
     from ..simulate import compare_planned
-    from ..simulate.compare import patch_bounds_at_centre
+    from ..simulate.patterns import patch_bounds_at_centre
     from ..surfaces import load_surface
 
     pats = [p.strip() for p in patterns.split(",") if p.strip()]

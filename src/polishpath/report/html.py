@@ -23,6 +23,7 @@ import numpy as np
 from ..fileio import atomic_open
 from ..provenance import machine_info
 from .rundata import RunData, load_run, step_lengths
+from .simulation import simulation_section
 
 # --- small formatting helpers ------------------------------------------------------
 
@@ -381,8 +382,6 @@ def build_html(run: RunData, figures: dict[str, tuple[Any, Path | None]], *, com
     parts.append('<section id="feed"><h2>Feed rate along the path</h2>' + block("feed_rate") + "</section>")
 
     # 6. simulation
-    from .simulation import simulation_section
-
     parts.append(simulation_section(run, _png_data_uri, _table, flatten_items))
 
     # 6b. figuring (only for runs whose dwell times were solved from an error map)

@@ -73,10 +73,12 @@ def simulation_section(run: RunData, png_data_uri: Callable[[Any], str], kv_tabl
                                ("lattice peak over the background (dB)", f.get("lattice_peak_db")),
                                ("PVn (PV / depth)", f.get("pvn")), ("spacing (mm)", f.get("spacing_mm"))]))
     imgs = [p for p in (sim.get("images") or []) if _nonempty(p)]
-    lead = [p for p in imgs if p.name in _LEAD_FIGURES and (rows or p.name == "psd.png")]
+    captions = _LEAD_FIGURES if rows else {"psd.png": "Profile PSD of the centre square's residual, the run's "
+                                                      "lattice frequencies marked"}
+    lead = sorted((p for p in imgs if p.name in captions), key=lambda p: list(captions).index(p.name))
     for p in lead:
         out.append(f'<figure><img alt="{_esc(p.stem)}" src="{png_data_uri(p)}" style="max-width:100%">'
-                   f"<figcaption>{_esc(_LEAD_FIGURES[p.name])}</figcaption></figure>")
+                   f"<figcaption>{_esc(captions[p.name])}</figcaption></figure>")
     rest = [p for p in imgs if p not in lead]
     if rest:
         out.append('<div class="grid">')

@@ -9,7 +9,6 @@ from .compare import (
     MODES,
     PAPER_TABLE4,
     compare_paths,
-    compare_patterns,
     compare_planned,
     default_tif,
     evaluate_result,
@@ -43,6 +42,7 @@ from .jobfiles import format_job_table, write_job_outputs
 from .jobpath import PLANES, TIMINGS, TimedPath, choose_plane, simulate_job, simulate_path, timed_path
 from .jobfiles import is_simulation_folder
 from .machinetime import machine_timed_path
+from .patterns import compare_patterns
 from .mechanisms import MECHANISMS, Mechanisms, parse_mechanisms
 from .spread import FAIR_KEYS, rank
 from .workpiece import Workpiece, flat_workpiece, synthetic_workpiece, workpiece_from_measurement

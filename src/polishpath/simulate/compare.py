@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import ParameterError, PatchTooSmallError
 from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peaks, psd_1d, suppression_ratio
 from ..pathops import split_by_pieces
-from ..types import PlanarPath, Region
+from ..types import PlanarPath
 from .motion import dwell_from_feed
 from .comparefiles import format_table, plot_psds, write_outputs
 from .machinetime import COMPARE_TIMINGS, machine_timed_path
@@ -31,8 +31,8 @@ from .spread import FAIR_KEYS, aggregate_rows, rank, spread
 from .tif import TIF, DirectionalTIF
 from .workpiece import DEFAULT_DX_MM, Workpiece, flat_workpiece, synthetic_workpiece
 
-__all__ = ["DEFAULT_NOISE", "DEFAULT_SMOOTHING", "MODES", "PAPER_TABLE4", "compare_paths", "compare_patterns",
-           "compare_planned", "default_tif", "evaluate_result", "format_table", "plot_psds", "profile_psd"]
+__all__ = ["DEFAULT_NOISE", "DEFAULT_SMOOTHING", "MODES", "PAPER_TABLE4", "compare_paths", "compare_planned",
+           "default_tif", "evaluate_result", "format_table", "plot_psds", "profile_psd"]
 
 #: The paper's Table 4: (before, after, suppression ratio) of the band-average PSD, 10^3-10^5 1/m.
 PAPER_TABLE4: dict[str, tuple[float, float, float]] = {
@@ -294,11 +294,6 @@ def _tif_params(tif) -> dict[str, Any]:
     return {"kind": tif.kind, **tif.params}
 
 
-def _square_region(size_mm: float) -> Region:
-    h = size_mm / 2
-    return Region(np.array([[-h, -h], [h, -h], [h, h], [-h, h]]))
-
-
 def _dwell_s_per_point(tif, spacing_mm: float, removal_depth_nm: float):
     """Equal dwell time per point (s) that removes ``removal_depth_nm`` on a grid of ``spacing_mm``, and the tool.
 
@@ -457,12 +452,12 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
     interference_free = mode == "interference-free"
     noise_used = None if (interference_free or not mech.noise) else noise
     smooth_used = None if not mech.smoothing else smoothing
-    inset = _reach(tif_scaled) + h0
+    inset = max(_reach(tif_scaled), _reach(tif_used)) + h0  # the reach of the tool used (edge off: wider)
     eval_bounds = (xmin + inset, ymin + inset, xmax - inset, ymax - inset)
     tm_all = time_model or ("segments" if timing == "ideal" else "moves")
     machine_cache: dict[int, tuple] = {}
     per_seed, psd_lists, timing_info, seed_list = [], {}, {}, [seed + i for i in range(seeds)]
-    out1 = None
+    out1, first_rows = None, {}
     for i, s_i in enumerate(seed_list):
         if interference_free:
             wp = flat_workpiece((xmin, ymin, xmax, ymax), dx_mm)
@@ -548,64 +543,3 @@ def _dwell_times(xy: np.ndarray, pieces: np.ndarray, t_point: float, dwell: str)
                                 for part in split_by_pieces(xy, pieces)])
         return times * (t_point * len(xy) / times.sum())
     raise ParameterError(f"unknown dwell mode {dwell!r}.", "Use 'equal' or 'feed'.")
-
-
-def patch_bounds_at_centre(region: Region, patch_mm: float | None):
-    """Bounds of a centred square of side ``patch_mm`` at the region's centroid (None: the region's bounds)."""
-    if patch_mm is None:
-        return tuple(map(float, region.bounds))
-    if not patch_mm > 0:
-        raise ParameterError(f"the patch side must be > 0 mm, got {patch_mm}.")
-    cx, cy = region.centroid
-    return (cx - patch_mm / 2, cy - patch_mm / 2, cx + patch_mm / 2, cy + patch_mm / 2)
-
-
-def compare_patterns(region_or_size: Region | float = 20.0,
-                     patterns=("pseudorandom", "raster", "spiral", "rectangular"), spacing: float = 0.5,
-                     seed: int = 0, *, seeds: int = 5, patch_mm: float | None = None, **kw) -> dict[str, Any]:
-    """Plan each pattern in a planar region, then :func:`compare_planned` (the Table 4 analogue on a plane).
-
-    A random pattern (:data:`polishpath.plan.RANDOM_PATTERNS`: the pseudo-random
-    planner, the Table 3 peers) is planned once per seed (``seed + i``), a
-    deterministic one once. For a part, plan on it through
-    :func:`polishpath.pipeline.plan_on_surface` (spacing on the part) and call
-    :func:`compare_planned`, as ``polishpath simulate SURFACE`` does.
-
-    Parameters
-    ----------
-    region_or_size : Region or float
-        Planar region (mm) or the side of a centred square, mm.
-    patterns : sequence of str
-        Planner pattern names (:data:`polishpath.plan.PATTERNS`).
-    spacing : float
-        Dwell-point spacing in the plane, mm.
-    seed : int
-        Base seed of the planner, the initial surface and the process noise.
-    seeds : int
-        Number of seeds.
-    patch_mm : float, optional
-        Simulate only a centred square of this side (mm) at the region's
-        centroid while planning over the whole region.
-    **kw :
-        Everything else of :func:`compare_planned` (mode, timing, tif, noise, dx_mm ...).
-
-    Returns
-    -------
-    dict
-        As :func:`compare_planned`; ``params["plans"]`` has each plan's provenance (first seed).
-    """
-    from ..plan import RANDOM_PATTERNS, plan  # the planning stage, looked up at call time
-
-    check_comparison(seeds=seeds, mode=kw.get("mode", "process"), timing=kw.get("timing", "machine"))
-    region = region_or_size if isinstance(region_or_size, Region) else _square_region(float(region_or_size))
-    planned, info = {}, {}
-    for pat in patterns:
-        tp = time.perf_counter()
-        random = pat in RANDOM_PATTERNS
-        pps = [plan(region, spacing, pat, seed=seed + i) for i in range(seeds if random else 1)]
-        planned[pat] = pps if random else pps[0]
-        info[pat] = {"n_points": int(pps[0].n_points), "n_unreached": int(len(pps[0].unreached)),
-                     "random": random, "seeds": [seed + i for i in range(len(pps))],
-                     "provenance": pps[0].provenance.to_dict(), "seconds": time.perf_counter() - tp}
-    return compare_planned(planned, seed=seed, seeds=seeds, patch_bounds=patch_bounds_at_centre(region, patch_mm),
-                           plan_info=info, **kw)
