@@ -78,7 +78,7 @@ def simulation_section(run: RunData, png_data_uri: Callable[[Any], str], kv_tabl
     lead = sorted((p for p in imgs if p.name in captions), key=lambda p: list(captions).index(p.name))
     for p in lead:
         out.append(f'<figure><img alt="{_esc(p.stem)}" src="{png_data_uri(p)}" style="max-width:100%">'
-                   f"<figcaption>{_esc(captions[p.name])}</figcaption></figure>")
+                   f"<figcaption>{_esc(p.name)}: {_esc(captions[p.name])}</figcaption></figure>")
     rest = [p for p in imgs if p not in lead]
     if rest:
         out.append('<div class="grid">')
