@@ -73,7 +73,7 @@ def table4(doc: Document, figs: FigureSet, st: Settings, res: dict, seed: int) -
           f"process noise {prm.get('noise')}; smoothing {prm.get('smoothing')}; initial surface "
           f"{(prm.get('workpiece') or {}).get('method', 'synthetic')}; PSD {prm.get('psd')}.")
     doc.p("The model behind these numbers, its assumptions and its sensitivity study are in the polishpath "
-          "documentation, docs/simulation.md ('What this says').")
+          "documentation, docs/simulation.md ('The fair table', 'Which mechanism decides the ranking').")
     res["table4"] = {"rows": data, "params": {k: v for k, v in prm.items() if k != "plans"}, "seconds": secs,
                      "ranking": ranking_ours, "rankings": {k: v["text"] for k, v in rk.items()}}
     # Fig. 13 analogue
