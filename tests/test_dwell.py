@@ -69,8 +69,58 @@ def test_times_at_least_the_minimum_and_in_path_csv(figured_job):
     np.testing.assert_allclose(csv["dwell_time"], job.figuring.times_s, rtol=1e-15)
 
 
+def _pieces_of_csv(csv, spacing):
+    """Continuous pieces of path.csv: a step longer than 1.5 diagonals is a lift."""
+    steps = np.hypot(np.diff(csv["x"]), np.diff(csv["y"]))
+    cuts = np.flatnonzero(steps > 1.5 * np.sqrt(2) * spacing) + 1
+    return np.concatenate([[0], cuts, [len(csv["x"])]])
+
+
+def _removal_along_cubic(csv, times, px, py, sigma, peak, spacing, nodes=4):
+    """Removal (nm) at pixels (px, py) of a tool that runs a cubic through path.csv's points and spends each point's
+    time at a constant feed over its region (half-way to the previous point .. half-way to the next, by chord
+    length): scipy's CubicSpline, Gauss-Legendre nodes, the Gaussian summed directly. Independent of polishpath."""
+    from scipy.interpolate import CubicSpline
+
+    xyz = np.column_stack([csv["x"], csv["y"], csv["z"]])
+    gx, gw = np.polynomial.legendre.leggauss(nodes)
+    gx, gw = 0.5 * (gx + 1), 0.5 * gw
+    src, wts = [], []
+    pcs = _pieces_of_csv(csv, spacing)
+    for a, b in zip(pcs[:-1], pcs[1:]):
+        q, t = xyz[a:b], times[a:b]
+        d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+        cs = CubicSpline(d, q)
+        rb = np.concatenate([[0.0], 0.5 * (d[1:] + d[:-1]), [d[-1]]])
+        u = rb[:-1, None] + (rb[1:] - rb[:-1])[:, None] * gx
+        ds = np.linalg.norm(cs(u, 1), axis=2) * (rb[1:] - rb[:-1])[:, None] * gw  # arc length per node
+        src.append(cs(u)[..., :2].reshape(-1, 2))
+        wts.append((t[:, None] * ds / ds.sum(axis=1, keepdims=True)).ravel())
+    src, wts = np.concatenate(src), np.concatenate(wts)
+    out = np.zeros(len(px))
+    for a in range(0, len(src), 2000):
+        dx = px[:, None] - src[None, a:a + 2000, 0]
+        dy = py[:, None] - src[None, a:a + 2000, 1]
+        out += (peak * np.exp(-(dx * dx + dy * dy) / (2 * sigma**2)) * wts[None, a:a + 2000]).sum(axis=1)
+    return out
+
+
+def _region_times_of_run(arr, period_ms):
+    """Time the run's machine samples spend in each dwell point's region (one piece), from run.npz."""
+    dp, sp = arr["dwell_params"], arr["sample_params"]
+    rb = np.concatenate([[sp[0]], 0.5 * (dp[1:] + dp[:-1]), [sp[-1]]])
+    return np.diff(np.interp(rb, sp, np.arange(len(sp)) * period_ms / 1000.0))
+
+
 def test_independent_removal_from_path_csv_agrees(figured_job):
-    """Removal summed here from path.csv (x, y, time) with the same Gaussian TIF vs what the run reports."""
+    """The removal computed here from path.csv (x, y, z, time) with the same Gaussian TIF vs the reported residual.
+
+    "Agrees" (issue 17, 1 %): the RMS over the clear aperture of the residual computed here and the reported
+    (machine-timed) residual RMS differ by <= 1 % of the initial error RMS. The tool runs a cubic through the points,
+    each time spent at a constant feed over its region: a stop-and-dwell sum at the points differs by ~2 % of the
+    initial RMS (mostly at the clear aperture's edge, where the path turns back at every edge point and the longest
+    times sit), which is why the solver and this check spend the time along the path.
+    """
     job, out = figured_job
     import json
 
@@ -79,30 +129,36 @@ def test_independent_removal_from_path_csv_agrees(figured_job):
     csv = read_path_csv(out / "path.csv")
     arr = np.load(out / "run.npz")
     fg = json.loads((out / "summary.json").read_text())["figuring"]
+    assert len(_pieces_of_csv(csv, 0.5)) == 2  # one piece: the run's samples are one interpolation run
     x0, y0, h = arr["figuring_grid"]
     target = arr["figuring_target_nm"]
     valid = arr["figuring_inside"] & np.isfinite(arr["figuring_error_nm"])
     ii, jj = np.nonzero(valid)
-    ii, jj = ii[::5], jj[::5]  # a fifth of the clear aperture's pixels
+    ii, jj = ii[::20], jj[::20]  # a twentieth of the clear aperture's pixels
     px, py = x0 + jj * h, y0 + ii * h
-    sigma = 3.0 / (2 * np.sqrt(2 * np.log(2)))
-    mine = np.zeros(len(px))
-    for a in range(0, len(csv["x"]), 200):
-        dx = px[:, None] - csv["x"][None, a:a + 200]
-        dy = py[:, None] - csv["y"][None, a:a + 200]
-        mine += (15.0 * np.exp(-(dx * dx + dy * dy) / (2 * sigma**2)) * csv["dwell_time"][None, a:a + 200]).sum(axis=1)
-    depth = float(np.mean(target[ii, jj]))
-    init = fg["initial_rms_nm"]
-    # the stop-and-dwell removal of path.csv's times: as reported, to 1 %
-    ideal = arr["figuring_ideal_removal_nm"][ii, jj]
-    assert np.sqrt(np.mean((mine - ideal) ** 2)) <= 0.01 * depth
-    res = target[ii, jj] - mine
-    assert np.std(res) == pytest.approx(fg["ideal_residual_rms_nm"], rel=0.01, abs=0.01 * init)
-    # the machine-timed removal (the summary's residual) differs from it only by the schedule's delivery
-    # (time spread along the path, times quantised to the 4 ms period): a few % of the depth
-    machine = arr["figuring_removal_nm"][ii, jj]
-    assert np.sqrt(np.mean((mine - machine) ** 2)) <= 0.04 * depth
-    assert abs(np.std(target[ii, jj] - machine) - fg["residual_rms_nm"]) <= 0.01 * init
+    sigma, init = 3.0 / (2 * np.sqrt(2 * np.log(2))), fg["initial_rms_nm"]
+    mine = _removal_along_cubic(csv, csv["dwell_time"], px, py, sigma, 15.0, 0.5)
+    reported = arr["figuring_residual_nm"][ii, jj]
+    assert np.isfinite(reported).all()
+    # the residual figure: computed here from path.csv vs the summary's machine-timed one, to 1 % of the initial RMS
+    assert abs(np.std(target[ii, jj] - mine) - fg["residual_rms_nm"]) <= 0.01 * init
+    assert abs(np.std(reported) - fg["residual_rms_nm"]) <= 0.005 * init  # the subset stands for the whole
+    # the maps, point by point: within 3 % of the initial RMS (measured 2.6 %); what is left is the smoothing
+    # stage delivering each region's time only to ~9 % RMS (docs/figuring.md). With the time the machine samples
+    # really spend in each region (computed here from run.npz) the maps agree to 1 %
+    diff = (target[ii, jj] - mine) - reported
+    assert np.sqrt(np.mean(diff**2)) <= 0.03 * init
+    got = _region_times_of_run(arr, json.loads((out / "summary.json").read_text())["smooth"]["period_ms"])
+    mine_got = _removal_along_cubic(csv, got, px, py, sigma, 15.0, 0.5)
+    diff = (target[ii, jj] - mine_got) - reported
+    assert np.sqrt(np.mean(diff**2)) <= 0.01 * init
+    assert np.abs(diff).max() <= 0.05 * init
+    # the point-dwell sum (no motion between points) is the cruder model: worse than the cubic, never better
+    sd = np.zeros(len(px))
+    for a in range(0, len(csv["x"]), 500):
+        dx, dy = px[:, None] - csv["x"][None, a:a + 500], py[:, None] - csv["y"][None, a:a + 500]
+        sd += (15.0 * np.exp(-(dx * dx + dy * dy) / (2 * sigma**2)) * got[None, a:a + 500]).sum(axis=1)
+    assert np.sqrt(np.mean((target[ii, jj] - sd - reported) ** 2)) > np.sqrt(np.mean(diff**2))
 
 
 @pytest.fixture(scope="module")

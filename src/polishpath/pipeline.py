@@ -520,7 +520,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         fig = None
         if cfg.error_map:
             with progress.stage("figuring: dwell times from the error map", timings, "dwell"):
-                fig, max_feed = figure_for_job(cfg, surface, spath)
+                fig, max_feed = figure_for_job(cfg, surface, spath, smooth_kw=smooth_kw)
             smooth_kw["dwell_times"] = fig.times_s
             smooth_kw["max_feed_mm_min"] = max_feed
         with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth"):
@@ -543,21 +543,6 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     with progress.stage("path metrics", timings, "metrics"):
         pm = path_metrics(planar, region)
     prediction = None
-    if fig is not None:
-        from .dwell import delivered_times, predict_residual
-
-        # where the machine-timed path could not go as fast as a solved time asks (turns), its delivered time
-        # becomes that point's minimum and the times are solved once more: the files carry times it can run
-        got = delivered_times(tool.dwell_params, tool.sample_params, tool.period_ms)
-        slow = got > fig.times_s * 1.01 + 1e-3 * tool.period_ms
-        if slow.any():
-            with progress.stage("figuring: re-solving with the machine's minimum times", timings, "dwell_resolve"):
-                fig, _ = figure_for_job(cfg, surface, spath, t_min_s=np.where(slow, got, 0.0))
-            smooth_kw["dwell_times"] = fig.times_s
-            with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth_resolve"):
-                tool = smooth(spath, surface=surface, **smooth_kw)
-            tool.stats.update(boundary)
-            fig.stats["resolved_slow_points"] = int(slow.sum())
     sched: dict[str, Any] = {}
     if machine is not None:
         from .schedule import schedule_feeds
@@ -565,10 +550,10 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         with progress.stage(f"feed schedule under {machine.name}", timings, "schedule"):
             tool, sched = schedule_feeds(tool, machine)
     if fig is not None:  # the residual of what the machine runs: the final (scheduled) samples
-        from .dwell import predict_residual
+        from .dwell import predict_residual, region_times
 
         with progress.stage("figuring: residual of the machine-timed path", timings, "dwell_residual"):
-            prediction = predict_residual(fig, tool.samples, tool.period_ms)
+            prediction = predict_residual(fig, tool.samples, tool.period_ms, delivered_s=region_times(tool))
     return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched,
                figuring=fig, figuring_prediction=prediction)
 
@@ -620,9 +605,14 @@ def build_tif(spec: str | None):
     return rotating_tool_tif(**{k: v for k, v in kw.items() if v is not None})
 
 
-def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, t_min_s: np.ndarray | None = None):
-    """Solve the job's dwell times from its error map (the dwell stage, wired); returns (Figuring, max feed)."""
-    from .dwell import Alignment, figure_dwell_times, read_error_map
+def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_kw: dict[str, Any] | None = None):
+    """Solve the job's dwell times from its error map (the dwell stage, wired); returns (Figuring, max feed).
+
+    Each point's least time is what a run of the smoothed path at the maximum feed spends in its region (the
+    curve's turns slow it below that feed), so every solved time is one the machine can run.
+    """
+    from .dwell import Alignment, figure_dwell_times, read_error_map, region_times
+    from .smooth import smooth
 
     o = dict(cfg.error_map_options or {})
     emap = read_error_map(cfg.error_map, height_unit=cfg.error_units, lateral_unit=o.get("lateral_unit"),
@@ -632,13 +622,15 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, t_min_s
     # the machine's feed limit: [error_map] max_feed_mm_min, else the profile's, else the smoothing stage's default
     default_max = min(5.0 * feed, machine.max_feed_mm_min) if machine is not None else 5.0 * feed
     max_feed = float(o.get("max_feed_mm_min", default_max))
+    kw = {k: v for k, v in (smooth_kw or {}).items() if k not in ("dwell_times", "feed_mm_min", "max_feed_mm_min")}
+    fastest = smooth(spath, **kw, feed_mm_min=max_feed, max_feed_mm_min=max_feed)
     fig = figure_dwell_times(
         surface, spath, emap, build_tif(cfg.tif), max_feed_mm_min=max_feed, alignment=Alignment.from_dict(o),
         bias_nm=o.get("bias_nm", "auto"), method=o.get("method", "auto"), smoothness=float(o.get("smoothness", 0.0)),
         extension_weight=float(o.get("extension_weight", 0.2)), max_uncovered=float(o.get("max_uncovered", 0.02)),
         ca_margin_mm=float(o.get("ca_margin_mm", 0.0)),
         period_ms=cfg.period_ms or (machine.period_ms if machine is not None else DEFAULT_PERIOD_MS),
-        chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=t_min_s)
+        chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=region_times(fastest))
     return fig, max_feed
 
 

@@ -7,7 +7,8 @@ so that the removal the path delivers cancels the error (see docs/figuring.md).
 Units: lengths mm, heights nm, times s, removal rates nm/s.
 """
 
-from .api import Figuring, delivered_times, figure_dwell_times, figuring_summary, predict_residual
+from .api import Figuring, figure_dwell_times, figuring_summary, predict_residual
+from .delivery import region_centroids, region_times
 from .errormap import Alignment, ErrorMap, read_error_map, sample_error, zernike_error_map, zernike_surface
 from .solver import DwellSolution, minimum_times, removal_map, solve_dwell
 from .target import Grid, Target, aperture_geometry, build_target, rms_pv
@@ -28,5 +29,5 @@ __all__ = [
     "ErrorMap", "Alignment", "read_error_map", "sample_error", "zernike_error_map", "zernike_surface",
     "Grid", "Target", "aperture_geometry", "build_target", "rms_pv",
     "DwellSolution", "minimum_times", "removal_map", "solve_dwell",
-    "Figuring", "delivered_times", "figure_dwell_times", "predict_residual", "figuring_summary",
+    "Figuring", "region_centroids", "region_times", "figure_dwell_times", "predict_residual", "figuring_summary",
 ]

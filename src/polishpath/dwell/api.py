@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import FiguringError
 from ..types import Provenance, Surface, SurfacePath
+from .delivery import region_centroids
 from .errormap import Alignment, ErrorMap
 from .solver import (
     DwellSolution,
@@ -43,13 +44,14 @@ class Figuring:
     tif : TIF
     provenance : Provenance
     ideal_removal_nm : (ny, nx) float64
-        Stop-and-dwell removal of ``times_s`` at the dwell points, on ``target.grid``.
+        The solver's model of the removal of ``times_s``: each time at its region's centroid
+        (:func:`~polishpath.dwell.delivery.region_centroids`), on ``target.grid``.
     stats : dict
         ``initial_rms_nm``, ``initial_pv_nm``, ``uncorrectable_rms_nm`` (the
         target's part above the passband), ``passband_cutoff_per_mm``,
         ``min_time_excess_nm`` (infeasibility: most the minimum times remove
         beyond the target, before the bias), ``ideal_residual_rms_nm`` (the
-        stop-and-dwell residual), solver figures.
+        residual of that model), solver figures.
     """
 
     times_s: np.ndarray
@@ -120,8 +122,10 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
     if t_min_s is not None:
         tmin = np.maximum(tmin, np.asarray(t_min_s, dtype=np.float64))
     pts = xyz[:, :2]
+    # each time is spent along the point's region of the path, not at the point: model it at the region's centroid
+    cen = region_centroids(xyz, pieces)
     # infeasibility: what the minimum times alone remove, against the target (at zero bias)
-    rmin = removal_map(target.grid, pts, tmin, tif)
+    rmin = removal_map(target.grid, cen, tmin, tif)
     valid = target.valid
     excess = float(np.max((rmin - target.removal_nm)[valid])) if valid.any() else 0.0
     if auto_bias and excess > 0:
@@ -134,7 +138,7 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
             UserWarning, stacklevel=2)
     grid_ij = surface_path.planar.ij if surface_path.planar is not None and len(surface_path.planar.ij) == n else None
     sol = solve_dwell(pts, target, tif, tmin, spacing_mm=spacing, method=method, grid_ij=grid_ij,
-                      smoothness=smoothness, solve_pitch_mm=solve_pitch_mm, max_iter=max_iter)
+                      smoothness=smoothness, solve_pitch_mm=solve_pitch_mm, max_iter=max_iter, centres_xy=cen)
     if not sol.converged:
         warnings.warn(f"the dwell-time solver ({sol.solver}) did not converge in {sol.stats.get('iterations')} "
                       f"iterations ({sol.stats.get('message')}); the residual shown is that of the last iterate.",
@@ -143,7 +147,7 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
     f_cut = passband_cutoff_per_mm(tif, spacing)
     _, high = split_by_frequency(target.grid, target.removal_nm, f_cut)
     unc_rms, _ = rms_pv(high[valid])
-    ideal = removal_map(target.grid, pts, sol.times_s, tif)
+    ideal = removal_map(target.grid, cen, sol.times_s, tif)
     ideal_rms, ideal_pv = rms_pv((target.removal_nm - ideal)[valid])
     stats = {
         "initial_rms_nm": init_rms, "initial_pv_nm": init_pv,
@@ -175,7 +179,8 @@ def _tif_params(tif) -> dict[str, Any]:
     return {"kind": type(tif).__name__}
 
 
-def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float) -> dict[str, Any]:
+def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float,
+                     delivered_s: np.ndarray | None = None) -> dict[str, Any]:
     """Removal and residual of the machine-timed path: each sample stands for one interpolation period.
 
     Parameters
@@ -184,13 +189,17 @@ def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float) -
     samples_xyz : (M, 3) float
         The smoothed path's samples at the constant period (``ToolPath.samples``), mm.
     period_ms : float
+    delivered_s : (N,) float, optional
+        The time the samples spend in each point's region (:func:`~polishpath.dwell.delivery.region_times`):
+        its relative difference from the solved times is reported.
 
     Returns
     -------
     dict
         ``removal_nm`` and ``residual_nm`` (ny, nx) maps on ``fig.target.grid``
         (residual NaN outside the measured aperture) and the figures
-        ``residual_rms_nm``, ``residual_pv_nm``, ``removal_rms_nm``, ``machine_time_s``.
+        ``residual_rms_nm``, ``residual_pv_nm``, ``removal_rms_nm``, ``machine_time_s`` and with
+        ``delivered_s`` ``delivered_time_error_rms`` / ``_max`` (relative to the solved times).
     """
     s = np.asarray(samples_xyz, dtype=np.float64)
     dt = period_ms / 1000.0
@@ -199,20 +208,13 @@ def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float) -
     residual = np.where(valid, fig.target.removal_nm - removal, np.nan)
     rr, rp = rms_pv(residual[valid])
     mr, _ = rms_pv(removal[valid])
-    return {"removal_nm": removal, "residual_nm": residual, "residual_rms_nm": rr, "residual_pv_nm": rp,
-            "removal_rms_nm": mr, "removal_mean_nm": float(np.mean(removal[valid])), "machine_time_s": len(s) * dt}
-
-
-def delivered_times(dwell_params: np.ndarray, sample_params: np.ndarray, period_ms: float) -> np.ndarray:
-    """Time the machine-timed path spends in each dwell point's region, s (N,).
-
-    A sample belongs to the dwell point nearest to it in curve parameter (the
-    regions of the smoothing stage: midpoints between dwell parameters).
-    """
-    dp = np.asarray(dwell_params, dtype=np.float64)
-    mids = 0.5 * (dp[1:] + dp[:-1])
-    k = np.searchsorted(mids, np.asarray(sample_params), side="right")
-    return np.bincount(k, minlength=len(dp)).astype(np.float64) * (period_ms / 1000.0)
+    out = {"removal_nm": removal, "residual_nm": residual, "residual_rms_nm": rr, "residual_pv_nm": rp,
+           "removal_rms_nm": mr, "removal_mean_nm": float(np.mean(removal[valid])), "machine_time_s": len(s) * dt}
+    if delivered_s is not None:
+        rel = (np.asarray(delivered_s, dtype=np.float64) - fig.times_s) / fig.times_s
+        out["delivered_time_error_rms"] = float(np.sqrt(np.mean(rel**2)))
+        out["delivered_time_error_max"] = float(np.abs(rel).max())
+    return out
 
 
 def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]:
@@ -226,8 +228,12 @@ def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]
         "uncorrectable_rms_nm": st["uncorrectable_rms_nm"], "passband_cutoff_per_mm": st["passband_cutoff_per_mm"],
         **({"uncorrectable_note": st["uncorrectable_note"]} if "uncorrectable_note" in st else {}),
         "total_time_s": float(fig.times_s.sum()), "machine_time_s": predicted["machine_time_s"],
+        "delivered_time_error_rms": predicted.get("delivered_time_error_rms"),
+        "delivered_time_error_max": predicted.get("delivered_time_error_max"),
         "solver": fig.solution.solver, "solver_converged": fig.solution.converged,
         "solver_detail": fig.solution.stats.get("method_detail"), "solver_iterations": fig.solution.stats.get("iterations"),
+        "solver_message": fig.solution.stats.get("message"),
+        "solver_relative_residual": fig.solution.stats.get("relative_residual"),
         "solve_seconds": fig.solution.stats.get("seconds"),
         "bias_nm": st["bias_nm"], "bias_mode": st["bias_mode"], "min_time_excess_nm": st["min_time_excess_nm"],
         "t_min_total_s": st["t_min_total_s"], "points_at_minimum_share": fig.solution.stats.get("bound_active_share"),

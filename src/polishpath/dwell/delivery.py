@@ -1,0 +1,115 @@
+"""How the machine delivers a dwell time: where along the path it is spent and how long it really takes.
+
+The machine never stops at a dwell point: the smoothing stage runs a cubic
+through the points at a constant feed per *region* (from half-way to the
+previous point to half-way to the next, in curve parameter) so that the region
+takes the point's time. Two consequences for the dwell-time solver:
+
+* **where** — a point's time is spread along its region, whose time centroid is
+  off the point wherever the path turns (by about a quarter step at a U-turn,
+  always so at the part's edge, where the path must turn back and where the
+  times are longest). :func:`region_centroids` gives each region's centroid
+  along a chord-length cubic through the points (uniform in arc length: the
+  constant feed), and the solver places each time there.
+* **how long** — the feed is cut where the curve turns tighter than the chord
+  tolerance allows, so a region's least time is what a run at the maximum feed
+  takes (:func:`region_times` of such a run), not its length over the feed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: sub-intervals per region for the arc-length centroid (Gauss-Legendre nodes)
+_NODES = 8
+
+
+def region_centroids(points_xyz: np.ndarray, pieces: np.ndarray) -> np.ndarray:
+    """Time centroid (x, y) of each dwell point's region at constant feed, mm (N, 2).
+
+    Along each continuous piece a cubic interpolating spline through the points,
+    parametrised by chord length (``scipy.interpolate.make_interp_spline``; the
+    smoothing stage's NURBS is the same kind of curve), is split at the half-way
+    parameters; the centroid of each region weighted by arc length (a constant
+    feed spends equal time on equal lengths) is integrated with Gauss-Legendre
+    nodes. Pieces of 2 or 3 points use a line or a parabola; a piece with a
+    repeated point uses the straight half-steps.
+
+    Parameters
+    ----------
+    points_xyz : (N, 3) float
+        Dwell points in path order, mm.
+    pieces : (K + 1,) int
+        Offsets of the continuous pieces.
+    """
+    from scipy.interpolate import make_interp_spline
+
+    p = np.asarray(points_xyz, dtype=np.float64)
+    out = p[:, :2].copy()
+    gx, gw = np.polynomial.legendre.leggauss(_NODES)
+    gx, gw = 0.5 * (gx + 1.0), 0.5 * gw
+    pcs = np.asarray(pieces, dtype=np.int64)
+    for a, b in zip(pcs[:-1], pcs[1:]):
+        q = p[a:b]
+        m = len(q)
+        if m < 2:
+            continue
+        step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+        if not np.all(step > 1e-12 * max(float(step.max()), 1e-300)):
+            out[a:b] = _polyline_centroids(q)
+            continue
+        d = np.concatenate([[0.0], np.cumsum(step)])
+        spl = make_interp_spline(d, q, k=min(3, m - 1))
+        der = spl.derivative()
+        rb = np.concatenate([[d[0]], 0.5 * (d[1:] + d[:-1]), [d[-1]]])
+        u = rb[:-1, None] + (rb[1:] - rb[:-1])[:, None] * gx[None, :]  # (m, nodes)
+        w = np.linalg.norm(der(u.ravel()), axis=1).reshape(u.shape) * (rb[1:] - rb[:-1])[:, None] * gw[None, :]
+        xy = spl(u.ravel())[:, :2].reshape(m, _NODES, 2)
+        out[a:b] = (xy * w[..., None]).sum(axis=1) / np.maximum(w.sum(axis=1), 1e-300)[:, None]
+    return out
+
+
+def _polyline_centroids(q: np.ndarray) -> np.ndarray:
+    """Centroids of the straight half-steps around each point (uniform in length), (m, 2)."""
+    half = 0.5 * np.linalg.norm(np.diff(q, axis=0), axis=1)
+    la = np.concatenate([[0.0], half])  # towards the previous point
+    lb = np.concatenate([half, [0.0]])  # towards the next point
+    ma = np.concatenate([q[:1], 0.5 * (q[1:] + q[:-1])])
+    mb = np.concatenate([0.5 * (q[1:] + q[:-1]), q[-1:]])
+    tot = np.where(la + lb > 0, la + lb, 1.0)
+    c = q + (la[:, None] * (ma - q) + lb[:, None] * (mb - q)) / (2.0 * tot[:, None])
+    return c[:, :2]
+
+
+def region_times(tool_path) -> np.ndarray:
+    """Time the machine-timed path spends in each dwell point's region, s (N,).
+
+    ``tool_path`` is a :class:`~polishpath.types.ToolPath` (read through its
+    fields only: this stage does not import the smoothing stage). The samples are
+    one interpolation period apart within each piece, so the time at a curve
+    parameter is the piecewise-linear interpolation of ``i * period`` over the
+    sample parameters; a region's time is the difference at its ends (the
+    regions of the smoothing stage: half-way between dwell parameters, the
+    piece's ends for its first and last point). Not a count of samples, which
+    would be off by up to one period per region.
+    """
+    dp = np.asarray(tool_path.dwell_params, dtype=np.float64)
+    sp = np.asarray(tool_path.sample_params, dtype=np.float64)
+    T = float(tool_path.period_ms) / 1000.0
+    st = tool_path.stats or {}
+    spieces = np.asarray(st.get("sample_pieces", [0, len(sp)]), dtype=np.int64)
+    ppar = np.asarray(st.get("piece_params", [sp[0], sp[-1]]), dtype=np.float64)
+    out = np.zeros(len(dp))
+    for k in range(len(spieces) - 1):
+        s = sp[spieces[k]:spieces[k + 1]]
+        if len(s) == 0:
+            continue
+        lo, hi = ppar[k], ppar[k + 1]
+        idx = np.flatnonzero((dp >= lo) & (dp < hi)) if k < len(spieces) - 2 else np.flatnonzero(dp >= lo)
+        if len(idx) == 0:
+            continue
+        d = dp[idx]
+        rb = np.concatenate([[s[0]], 0.5 * (d[1:] + d[:-1]), [s[-1]]])
+        tt = np.arange(len(s)) * T
+        out[idx] = np.diff(np.interp(rb, s, tt))
+    return out
