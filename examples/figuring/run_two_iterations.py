@@ -43,10 +43,12 @@ def polish_and_measure(run_dir: Path, out_file: Path, rate_error: float = -0.05,
     return out_file
 
 
-def main(out: Path):
+def main(out: Path, **overrides):
+    """Both iterations into ``out`` (it1/, after-1.xyz, it2/); ``overrides`` replace job.toml keys (a test runs a
+    smaller part). Returns the two summaries' ``figuring`` blocks."""
     out.mkdir(parents=True, exist_ok=True)
     figures = []
-    cfg = JobConfig.from_toml(HERE / "job.toml")
+    cfg = JobConfig.from_toml(HERE / "job.toml", **overrides)
     for it in (1, 2):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
@@ -60,7 +62,7 @@ def main(out: Path):
               f"solver {fg['solver']}", flush=True)
         if it == 1:
             after = polish_and_measure(d, out / "after-1.xyz")
-            cfg = JobConfig.from_toml(HERE / "job.toml", error_map=str(after))
+            cfg = JobConfig.from_toml(HERE / "job.toml", **{**overrides, "error_map": str(after)})
     return figures
 
 

@@ -207,6 +207,8 @@ def read_error_map(file, *, height_unit: str | None = None, lateral_unit: str | 
     -------
     ErrorMap
         Centred on the map frame's origin unless the file gives coordinates (``x y z`` text).
+        Row ``i`` of a grid is at ``y = origin + i dy`` (rows go up in y); a ``.datx`` file
+        stores its top row first, so its rows are flipped.
     """
     p = Path(file)
     if p.suffix.lower() == ".toml":
@@ -224,10 +226,15 @@ def read_error_map(file, *, height_unit: str | None = None, lateral_unit: str | 
         warnings.warn(f"{p.name}: {' and '.join(assumed)} assumed (the file does not say); "
                       "give --error-units (heights) or [error_map] lateral_unit to be sure.", UserWarning, stacklevel=2)
     origin = m.params.get("origin_mm")
-    params = {k: v for k, v in m.params.items() if k != "header"}
+    params = {k: v for k, v in m.params.items() if k not in ("header", "note")}
+    z = m.z_nm
+    if params.get("format") == "datx":
+        # a .datx stores its rows as the camera sees them, top row (largest y) first; the map's rows go up in y
+        z = z[::-1]
+        params["rows"] = "flipped: the file's first row is the map's largest y"
     if origin is not None:
-        return ErrorMap(m.z_nm, m.dx_mm, m.dy_mm or m.dx_mm, tuple(origin), str(p), params)
-    return ErrorMap.centred(m.z_nm, m.dx_mm, m.dy_mm or m.dx_mm, source=str(p), params=params)
+        return ErrorMap(z, m.dx_mm, m.dy_mm or m.dx_mm, tuple(origin), str(p), params)
+    return ErrorMap.centred(z, m.dx_mm, m.dy_mm or m.dx_mm, source=str(p), params=params)
 
 
 def zernike_error_map(data: dict[str, Any], *, source: str = "zernike", height_unit: str | None = None) -> ErrorMap:

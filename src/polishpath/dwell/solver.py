@@ -238,7 +238,7 @@ def lattice_of(points_xy: np.ndarray, grid_ij: np.ndarray | None, tol: float = 1
 
 def solve_dwell(points_xy: np.ndarray, target: Target, tif, t_min_s: np.ndarray, *, spacing_mm: float,
                 method: str = "auto", grid_ij: np.ndarray | None = None, smoothness: float = 0.0,
-                solve_pitch_mm: float | None = None, max_iter: int = 1500, tol: float = 1e-3,
+                solve_pitch_mm: float | None = None, max_iter: int = 3000, tol: float = 2e-3,
                 centres_xy: np.ndarray | None = None) -> DwellSolution:
     """Solve non-negative dwell times (>= ``t_min_s``) whose removal matches ``target``.
 
@@ -342,7 +342,8 @@ def _solve_lsq(pts, cen, target, tif, tmin, spacing, smoothness, solve_pitch, ma
     t, res = bounded_lsq(lambda t: A @ t, lambda r: AT @ r, b, wr, tmin, x0, D, lam, max_iter, tol, diag)
     fit = wr * (b - A @ t)
     stats = {"iterations": int(res.nit), "message": str(res.message), "status": int(res.status),
-             "relative_residual": res.rho, "relative_residual_change_30": res.rho_change,
+             "relative_residual": res.rho, "relative_residual_start": res.rho_start,
+             "relative_residual_change_30": res.rho_change,
              "fit_rms_nm": float(np.sqrt(np.mean(fit**2))), "solve_grid": grid.to_dict(), "nnz": int(A.nnz),
              "smoothness_lambda": lam,
              "method_detail": "spectral projected gradient (bounds t >= t_min) on a sparse influence matrix"}
@@ -451,7 +452,8 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
                           b.ravel(), w.ravel(), tmin, x0, D, lam, max_iter, tol, diag)
     nfit = max(int((w > 0).sum()), 1)
     stats = {"iterations": int(res.nit), "message": str(res.message), "status": int(res.status),
-             "relative_residual": res.rho, "relative_residual_change_30": res.rho_change,
+             "relative_residual": res.rho, "relative_residual_start": res.rho_start,
+             "relative_residual_change_30": res.rho_change,
              "threshold_gamma": float(gamma), "fit_rms_nm": float(math.sqrt(wcost(t) / nfit)),
              "lattice_spacing_mm": s, "lattice_shape": [ni, nj], "smoothness_lambda": lam,
              "method_detail": "RIFTA-style thresholded inverse filter for the first times, then spectral "

@@ -38,8 +38,9 @@ def bounded_lsq(matvec, rmatvec, b, w, tmin, x0, D, lam, max_iter, tol, diag=Non
     otherwise the iteration limit (not converged).
 
     Returns (t, info) with ``info.nit``, ``info.success``, ``info.message``,
-    ``info.status``, ``info.rho`` (final relative residual), ``info.rho_change``
-    (its relative change over the last 30 iterations).
+    ``info.status``, ``info.rho`` (final relative residual), ``info.rho_start``
+    (at the first guess), ``info.rho_change`` (its relative change over the last
+    30 iterations; NaN before 31).
     """
     from types import SimpleNamespace
 
@@ -99,7 +100,10 @@ def bounded_lsq(matvec, rmatvec, b, w, tmin, x0, D, lam, max_iter, tol, diag=Non
                 break
     t = np.maximum(x, tmin)
     rho = math.sqrt(max(min(hist[-10:]), 0.0))
+    rho0 = math.sqrt(max(hist[0], 0.0))
     if status == 0:
-        msg = (f"iteration limit {max_iter} reached: relative residual {rho:.4g}, still changing by {change:.2g} "
-               f"of itself over the last 30 iterations (converged means < {tol:g})")
-    return t, SimpleNamespace(nit=it, success=status > 0, message=msg, status=status, rho=rho, rho_change=change)
+        msg = f"iteration limit {max_iter} reached: relative residual {rho0:.4g} -> {rho:.4g}"
+        if math.isfinite(change):
+            msg += f", still changing by {change:.2g} of itself over the last 30 iterations (converged: < {tol:g})"
+    return t, SimpleNamespace(nit=it, success=status > 0, message=msg, status=status, rho=rho, rho_change=change,
+                              rho_start=rho0)
