@@ -115,11 +115,13 @@ def _region_times_of_run(arr, period_ms):
 def test_independent_removal_from_path_csv_agrees(figured_job):
     """The removal computed here from path.csv (x, y, z, time) with the same Gaussian TIF vs the reported residual.
 
-    "Agrees" (issue 17, 1 %): the RMS over the clear aperture of the residual computed here and the reported
-    (machine-timed) residual RMS differ by <= 1 % of the initial error RMS. The tool runs a cubic through the points,
-    each time spent at a constant feed over its region: a stop-and-dwell sum at the points differs by ~2 % of the
-    initial RMS (mostly at the clear aperture's edge, where the path turns back at every edge point and the longest
-    times sit), which is why the solver and this check spend the time along the path.
+    "Agrees" (issue 17, 1 %), over the clear aperture: (a) the residual map computed here and the reported
+    (machine-timed) one differ by <= 1 % of the initial error RMS, RMS over the pixels, and (b) their RMS figures
+    by <= 1 % of it. The tool runs a cubic through path.csv's points and spends each point's time at a constant
+    feed over its region (half-way to its neighbours); the time is the one the machine samples really spend in the
+    region. path.csv's own (solved) times are delivered by the smoothing stage only to ~9 % RMS per point (a step
+    from a fast region runs its whole length into a slow one; the summary reports it as delivered_time_error_rms,
+    docs/figuring.md): with them the residual figure still agrees to 1 %, the maps to 3 %.
     """
     job, out = figured_job
     import json
@@ -128,37 +130,38 @@ def test_independent_removal_from_path_csv_agrees(figured_job):
 
     csv = read_path_csv(out / "path.csv")
     arr = np.load(out / "run.npz")
-    fg = json.loads((out / "summary.json").read_text())["figuring"]
+    summary = json.loads((out / "summary.json").read_text())
+    fg = summary["figuring"]
     assert len(_pieces_of_csv(csv, 0.5)) == 2  # one piece: the run's samples are one interpolation run
     x0, y0, h = arr["figuring_grid"]
     target = arr["figuring_target_nm"]
     valid = arr["figuring_inside"] & np.isfinite(arr["figuring_error_nm"])
     ii, jj = np.nonzero(valid)
-    ii, jj = ii[::20], jj[::20]  # a twentieth of the clear aperture's pixels
+    ii, jj = ii[::50], jj[::50]  # a fiftieth of the clear aperture's pixels (about 4,600)
     px, py = x0 + jj * h, y0 + ii * h
     sigma, init = 3.0 / (2 * np.sqrt(2 * np.log(2))), fg["initial_rms_nm"]
-    mine = _removal_along_cubic(csv, csv["dwell_time"], px, py, sigma, 15.0, 0.5)
     reported = arr["figuring_residual_nm"][ii, jj]
     assert np.isfinite(reported).all()
-    # the residual figure: computed here from path.csv vs the summary's machine-timed one, to 1 % of the initial RMS
-    assert abs(np.std(target[ii, jj] - mine) - fg["residual_rms_nm"]) <= 0.01 * init
     assert abs(np.std(reported) - fg["residual_rms_nm"]) <= 0.005 * init  # the subset stands for the whole
-    # the maps, point by point: within 3 % of the initial RMS (measured 2.6 %); what is left is the smoothing
-    # stage delivering each region's time only to ~9 % RMS (docs/figuring.md). With the time the machine samples
-    # really spend in each region (computed here from run.npz) the maps agree to 1 %
+    got = _region_times_of_run(arr, summary["smooth"]["period_ms"])
+    mine = _removal_along_cubic(csv, got, px, py, sigma, 15.0, 0.5)
     diff = (target[ii, jj] - mine) - reported
-    assert np.sqrt(np.mean(diff**2)) <= 0.03 * init
-    got = _region_times_of_run(arr, json.loads((out / "summary.json").read_text())["smooth"]["period_ms"])
-    mine_got = _removal_along_cubic(csv, got, px, py, sigma, 15.0, 0.5)
-    diff = (target[ii, jj] - mine_got) - reported
-    assert np.sqrt(np.mean(diff**2)) <= 0.01 * init
-    assert np.abs(diff).max() <= 0.05 * init
-    # the point-dwell sum (no motion between points) is the cruder model: worse than the cubic, never better
+    assert np.sqrt(np.mean(diff**2)) <= 0.01 * init  # (a), measured 0.35 %
+    assert abs(np.std(target[ii, jj] - mine) - fg["residual_rms_nm"]) <= 0.01 * init  # (b), measured 0.04 %
+    # the point-dwell sum (no motion between points) is the cruder model, several times further off
     sd = np.zeros(len(px))
     for a in range(0, len(csv["x"]), 500):
         dx, dy = px[:, None] - csv["x"][None, a:a + 500], py[:, None] - csv["y"][None, a:a + 500]
         sd += (15.0 * np.exp(-(dx * dx + dy * dy) / (2 * sigma**2)) * got[None, a:a + 500]).sum(axis=1)
-    assert np.sqrt(np.mean((target[ii, jj] - sd - reported) ** 2)) > np.sqrt(np.mean(diff**2))
+    assert np.sqrt(np.mean((target[ii, jj] - sd - reported) ** 2)) > 3 * np.sqrt(np.mean(diff**2))
+    # what the smoothing stage delivers of path.csv's times is reported, and the summary's figure is this one
+    rel = (got - csv["dwell_time"]) / csv["dwell_time"]
+    assert fg["delivered_time_error_rms"] == pytest.approx(np.sqrt(np.mean(rel**2)), rel=1e-6)
+    assert fg["delivered_time_error_max"] == pytest.approx(np.abs(rel).max(), rel=1e-6)
+    # with path.csv's own times: the residual figure to 1 % (measured 0.14 %), the map to 3 % (measured 1.4 %)
+    with_csv = _removal_along_cubic(csv, csv["dwell_time"], px, py, sigma, 15.0, 0.5)
+    assert abs(np.std(target[ii, jj] - with_csv) - fg["residual_rms_nm"]) <= 0.01 * init
+    assert np.sqrt(np.mean(((target[ii, jj] - with_csv) - reported) ** 2)) <= 0.03 * init
 
 
 @pytest.fixture(scope="module")

@@ -611,7 +611,7 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_
     Each point's least time is what a run of the smoothed path at the maximum feed spends in its region (the
     curve's turns slow it below that feed), so every solved time is one the machine can run.
     """
-    from .dwell import Alignment, figure_dwell_times, read_error_map, region_times
+    from .dwell import DEFAULT_SMOOTHNESS, Alignment, figure_dwell_times, read_error_map, region_times
     from .smooth import smooth
 
     o = dict(cfg.error_map_options or {})
@@ -626,7 +626,7 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_
     fastest = smooth(spath, **kw, feed_mm_min=max_feed, max_feed_mm_min=max_feed)
     fig = figure_dwell_times(
         surface, spath, emap, build_tif(cfg.tif), max_feed_mm_min=max_feed, alignment=Alignment.from_dict(o),
-        bias_nm=o.get("bias_nm", "auto"), method=o.get("method", "auto"), smoothness=float(o.get("smoothness", 0.0)),
+        bias_nm=o.get("bias_nm", "auto"), method=o.get("method", "auto"), smoothness=float(o.get("smoothness", DEFAULT_SMOOTHNESS)),
         extension_weight=float(o.get("extension_weight", 0.2)), max_uncovered=float(o.get("max_uncovered", 0.02)),
         ca_margin_mm=float(o.get("ca_margin_mm", 0.0)),
         period_ms=cfg.period_ms or (machine.period_ms if machine is not None else DEFAULT_PERIOD_MS),

@@ -10,7 +10,7 @@ Units: lengths mm, heights nm, times s, removal rates nm/s.
 from .api import Figuring, figure_dwell_times, figuring_summary, predict_residual
 from .delivery import region_centroids, region_times
 from .errormap import Alignment, ErrorMap, read_error_map, sample_error, zernike_error_map, zernike_surface
-from .solver import DwellSolution, minimum_times, removal_map, solve_dwell
+from .solver import DEFAULT_SMOOTHNESS, DwellSolution, minimum_times, removal_map, solve_dwell
 from .target import Grid, Target, aperture_geometry, build_target, rms_pv
 from .tif import (
     DEFAULT_FWHM_MM,
@@ -28,6 +28,6 @@ __all__ = [
     "DEFAULT_FWHM_MM", "DEFAULT_PEAK_RATE_NM_S", "FWHM_PER_SIGMA",
     "ErrorMap", "Alignment", "read_error_map", "sample_error", "zernike_error_map", "zernike_surface",
     "Grid", "Target", "aperture_geometry", "build_target", "rms_pv",
-    "DwellSolution", "minimum_times", "removal_map", "solve_dwell",
+    "DEFAULT_SMOOTHNESS", "DwellSolution", "minimum_times", "removal_map", "solve_dwell",
     "Figuring", "region_centroids", "region_times", "figure_dwell_times", "predict_residual", "figuring_summary",
 ]

@@ -19,6 +19,7 @@ from ..types import Provenance, Surface, SurfacePath
 from .delivery import region_centroids
 from .errormap import Alignment, ErrorMap
 from .solver import (
+    DEFAULT_SMOOTHNESS,
     DwellSolution,
     minimum_times,
     passband_cutoff_per_mm,
@@ -65,7 +66,7 @@ class Figuring:
 
 def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: ErrorMap, tif, *,
                        max_feed_mm_min: float, alignment: Alignment | None = None, bias_nm: float | str = "auto",
-                       method: str = "auto", smoothness: float = 0.0, extension_weight: float = 0.2,
+                       method: str = "auto", smoothness: float = DEFAULT_SMOOTHNESS, extension_weight: float = 0.2,
                        max_uncovered: float = 0.02, solve_pitch_mm: float | None = None, max_iter: int = 3000,
                        spacing_mm: float | None = None, ca_margin_mm: float = 0.0, period_ms: float | None = None,
                        chord_tol_mm: float | None = None, t_min_s: np.ndarray | None = None) -> Figuring:
