@@ -113,7 +113,12 @@ def figuring_section(run: RunData, png_uri) -> str:
     rows = [("error map", fg.get("error_map")), ("solver", f"{fg.get('solver')} ({fg.get('solver_detail')})"),
             ("converged", fg.get("solver_converged")), ("initial RMS / PV, nm", f"{fg['initial_rms_nm']:.4g} / {fg['initial_pv_nm']:.4g}"),
             ("predicted residual RMS / PV, nm (machine-timed)", f"{fg['residual_rms_nm']:.4g} / {fg['residual_pv_nm']:.4g}"),
-            ("stop-and-dwell residual RMS, nm", f"{fg['ideal_residual_rms_nm']:.4g}"),
+            ("solver's model residual RMS, nm (each time at its region's centroid)",
+             f"{fg['ideal_residual_rms_nm']:.4g}"),
+            ("delivered time error RMS / max (machine vs solved, per point)",
+             f"{fg['delivered_time_error_rms']:.2%} / {fg['delivered_time_error_max']:.2%}"
+             if fg.get("delivered_time_error_rms") is not None else "n/a"),
+            ("solver message", fg.get("solver_message")),
             ("above the passband (uncorrectable) RMS, nm", f"{fg['uncorrectable_rms_nm']:.4g}"),
             ("total dwell time, min", f"{fg['total_time_s'] / 60:.4g}"), ("uniform bias, nm", f"{fg['bias_nm']:.4g} ({fg['bias_mode']})"),
             ("points at their minimum time", f"{100 * (fg.get('points_at_minimum_share') or 0):.1f} %"),
