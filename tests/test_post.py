@@ -599,6 +599,12 @@ def test_streamed_run_folder_files_equal_the_in_memory_ones(tool_path, tmp_path)
     info = write_program(bare, b, post="xyz", chunks=chunks())
     assert (a / "toolpath.xyz").read_bytes() == (b / "toolpath.xyz").read_bytes()
     assert info["path_time_s"] == pytest.approx(planned_segment_times(tool_path).sum(), rel=1e-12)
+    # the gouge check of a streamed job measures the curve itself (no samples held)
+    cap = spherical_cap(n_r=10, n_phi=36).surface
+    g_mem = write_gcode(tool_path, io.StringIO(), tool_radius=3.0, surface=cap)["gouge"]
+    g_str = write_gcode(bare, io.StringIO(), tool_radius=3.0, surface=cap, chunks=chunks())["gouge"]
+    assert g_str["centres_measured"] > len(tool_path.surface_path.xyz)
+    assert g_str["min_centre_distance_mm"] == pytest.approx(g_mem["min_centre_distance_mm"], abs=0.02)
     # chunks out of order are refused by name
     bad = list(sample_chunks(tool_path, 500))[::-1]
     with pytest.raises(ExportError, match="pieces must come in order"):

@@ -64,7 +64,8 @@ def gouge_check(tool_path: ToolPath, tool_radius: float, surface: Surface | None
     surface : Surface, optional
         The part's mesh: also measure how near the tool centres come to it.
     max_points : int
-        Most tool centres measured against the mesh (evenly spread over the samples).
+        Most tool centres measured against the mesh (evenly spread over the samples; for a
+        ToolPath without samples, a streamed job's, over 8 curve points per dwell interval).
 
     Returns
     -------
@@ -91,11 +92,19 @@ def gouge_check(tool_path: ToolPath, tool_radius: float, surface: Surface | None
             f"path, {rmin:.4g} mm ({under} of {len(radii)} steps are more tightly concave than the tool): the ball "
             f"cuts into the part beside the contact point there. Use a tool radius under {rmin:.4g} mm.")
     if surface is not None:
-        from ...smooth import point_mesh_distance, sample_normals
+        from ...smooth import evaluate, point_mesh_distance
+        from ..chunks import normals_at
 
-        step = max(1, -(-len(tool_path.samples) // max_points))
-        pts = tool_path.samples[::step]
-        centres = pts + tool_radius * sample_normals(tool_path)[::step]
+        if len(tool_path.samples):
+            step = max(1, -(-len(tool_path.samples) // max_points))
+            u = tool_path.sample_params[::step]
+            pts = tool_path.samples[::step]
+        else:  # a streamed job's ToolPath holds no samples: the curve, 8 points per dwell interval
+            dp = tool_path.dwell_params
+            u = np.append((dp[:-1, None] + np.diff(dp)[:, None] * (np.arange(8) / 8.0)).ravel(), dp[-1:])
+            u = u[:: max(1, -(-len(u) // max_points))]
+            pts = evaluate(tool_path.curve, u)
+        centres = pts + tool_radius * normals_at(tool_path, u)
         d = point_mesh_distance(centres, surface)
         dmin = float(d.min()) if len(d) else float("inf")
         out["min_centre_distance_mm"] = dmin
@@ -103,7 +112,7 @@ def gouge_check(tool_path: ToolPath, tool_radius: float, surface: Surface | None
         out["centres_measured"] = int(len(d))
         # the smooth curve runs up to surface_deviation_max off the faceted mesh, so a true contact can
         # measure that much nearer than r: only a deeper interference (and over 1 % of r) is a gouge
-        floor = max(0.01 * tool_radius, float(tool_path.stats.get("surface_deviation_max", 0.0)) + 0.01)
+        floor = max(0.01 * tool_radius, float(tool_path.stats.get("surface_deviation_max") or 0.0) + 0.01)
         out["interference_floor_mm"] = floor
         if tool_radius - dmin > floor:
             k = int(np.sum(d < tool_radius - floor))
