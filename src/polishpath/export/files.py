@@ -1,7 +1,8 @@
 """The record files of a run: ``path.csv``, ``toolpath.xyz``, ``summary.json``.
 
-Also the small text helpers every writer shares (atomic write to a path or an
-open file, fast bulk row formatting, fixed-point numbers without ``-0``).
+Also the small helpers every writer shares (atomic write to a path or an open
+file, text or binary; fixed-point numbers without ``-0``); the bulk formatting
+of rows is :mod:`polishpath.export.textfmt`.
 """
 
 from __future__ import annotations
@@ -72,11 +73,6 @@ def _bytes_out(file) -> Iterator:
         raise ExportError(f"Cannot write {path}: folder {folder} does not exist.", "Create the folder first.")
     with atomic_open(path, "wb") as fh:
         yield fh.write
-
-
-def _rounded(a: np.ndarray, decimals: int) -> np.ndarray:
-    # round, then add +0.0 so that tiny negatives print as 0.0000, not -0.0000
-    return np.round(np.asarray(a, dtype=np.float64), decimals) + 0.0
 
 
 def _fmt(v: float, decimals: int) -> str:
