@@ -10,9 +10,9 @@ whatever the chunk sizes; :func:`sample_chunks` cuts an in-memory ToolPath into
 chunks (the in-memory writers use it).
 
 Contract of the iterable: chunks in path order; each chunk within one piece;
-pieces in order (``piece`` 0, 1, ...), each piece's first chunk starting at
-its first sample (a new ``piece`` value starts a new piece); every chunk at
-least one sample.
+pieces in order (``piece`` 0, 1, ...; a piece without samples may be left
+out), each piece's first chunk starting at its first sample (a new ``piece``
+value starts a new piece); every chunk at least one sample.
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def checked_chunks(chunks: Iterable[SampleChunk], n_pieces: int) -> Iterator[tup
         if not isinstance(c, SampleChunk):
             raise ExportError(f"The writers take SampleChunk objects, got {type(c).__name__}.")
         if c.piece != current:
-            if c.piece != current + 1 or c.piece >= n_pieces:
+            if c.piece < current or c.piece >= n_pieces:  # a piece without samples may be left out
                 raise ExportError(f"Chunk of piece {c.piece} after piece {current}: pieces must come in order "
                                   f"0..{n_pieces - 1}, each once.")
             current = c.piece
