@@ -258,6 +258,13 @@ def test_shared_camelhead_slivers_do_not_break_the_solve(shared_mesh):
     assert fl.metrics["flipped_faces"] == 0
     assert fl.metrics["max_wheel_residual"] < fl.provenance.params["tol"]
     assert fl.metrics["angle_error_mean_deg"] < 1.41  # LSCM's figure on this mesh
+    # uniform weights drive its slivers to zero: "auto" starts again with 1/beta^2 and
+    # gets the same angles as asking for them (reusing the first attempt's pattern)
+    assert fl.provenance.params["weights"] == "inverse_square"
+    a_auto, _, st = mabf_angles(s.vertices, s.faces, weights="auto")
+    a_inv, _, _ = mabf_angles(s.vertices, s.faces, weights="inverse_square")
+    assert st["weights"] == "inverse_square"
+    assert np.array_equal(a_auto, a_inv)
 
 
 # --- holes ---------------------------------------------------------------------------
@@ -386,6 +393,76 @@ def test_mabf_pcg_backends_agree(solver):
     ref, _, _ = mabf_angles(s.vertices, s.faces, linear="direct", solver="superlu", tol=1e-11)
     ang, _, _ = mabf_angles(s.vertices, s.faces, solver=solver, linear="pcg", tol=1e-11)
     assert np.abs(ang - ref).max() < 1e-5
+
+
+def test_disc_topology_agrees_with_the_separate_functions():
+    """disc_topology finds twins, boundary half-edges and boundary vertices in one sort;
+    they must be what half_edge_twin_slots and meshops compute one by one."""
+    from polishpath.flatten.topology import disc_topology, half_edge_twin_slots
+
+    s = surface("cap", n_rings=6, hole=3.0)
+    topo = disc_topology(s.vertices, s.faces)
+    tf, ts = half_edge_twin_slots(s.faces)
+    assert np.array_equal(topo.twin_face, tf) and np.array_equal(topo.twin_slot, ts)
+    assert np.array_equal(topo.boundary_edges, meshops.boundary_edges(s.faces))
+    assert np.array_equal(topo.boundary_mask, meshops.boundary_vertex_mask(s.n_vertices, s.faces))
+    assert [lp.tolist() for lp in topo.loops] == [lp.tolist() for lp in meshops.boundary_loops(s.faces)]
+
+
+def test_face_metrics_kernel_matches_meshops():
+    """flattening_metrics' one-pass numba kernel against meshops' corner_angles,
+    face_areas and jacobian_singular_values (the formulas it repeats), on a distorted
+    map with a flipped face and a face of zero 3D area."""
+    from polishpath.flatten.metrics import _kernel_face_metrics
+
+    s = surface("cap", n_rings=5)
+    v = s.vertices.copy()
+    f = s.faces
+    uv = np.stack([v[:, 0] + 0.02 * v[:, 1] ** 2, 0.8 * v[:, 1] - 0.01 * v[:, 0] ** 2], axis=1)
+    i0, i1, i2 = f[7]
+    d = uv[i1] - uv[i0]
+    uv[i2] = uv[i0] + 0.5 * d - 0.2 * np.array([-d[1], d[0]])  # fold one face over (clockwise)
+    v = np.vstack([v, v[f[0, 0]], v[f[0, 0]] + [1.0, 0, 0], v[f[0, 0]] + [2.0, 0, 0]])  # a collinear face
+    uv = np.vstack([uv, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])
+    f = np.vstack([f, [[len(v) - 3, len(v) - 2, len(v) - 1]]])
+    err, a3, a2, sv = _kernel_face_metrics(v, uv, f)
+    assert np.allclose(err, np.abs(meshops.corner_angles(uv, f) - meshops.corner_angles(v, f)).ravel(), atol=1e-13)
+    assert np.allclose(a3, meshops.face_areas(v, f), rtol=1e-13, atol=1e-15)
+    assert np.allclose(a2, meshops.face_areas(uv, f, signed=True), rtol=1e-13, atol=1e-15)
+    assert a2[7] < 0
+    ref = meshops.jacobian_singular_values(v, uv, f)
+    assert np.all(np.isinf(sv[-1])) and np.all(np.isinf(ref[-1]))
+    assert np.allclose(sv[:-1], ref[:-1], rtol=1e-12)
+
+
+def test_cvxopt_backend_reuses_one_ordering_for_several_matrices(monkeypatch):
+    """CHOLMOD through cvxopt (the default for big systems): two matrices of one
+    pattern, supernodal and simplicial, solve like scipy; its global options are
+    restored; a matrix that is not positive definite raises FlatteningError."""
+    pytest.importorskip("cvxopt", reason="cvxopt (a core dependency) is not installed")
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+    from cvxopt import cholmod
+
+    from polishpath.flatten import linalg
+
+    n = 30
+    lap1 = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
+    A = (sp.kron(sp.eye(n), lap1) + sp.kron(lap1, sp.eye(n))).tocsc()
+    B = (A + sp.diags(np.linspace(0.1, 2.0, n * n))).tocsc()
+    b = np.random.default_rng(0).normal(size=n * n)
+    before = dict(cholmod.options)
+    for rows in (0, 10**9):  # supernodal everywhere, simplicial everywhere
+        monkeypatch.setattr(linalg, "SUPERNODAL_ROWS", rows)
+        fz = linalg.SpdFactorizer(A, "cvxopt")
+        assert fz.backend == "cvxopt"
+        for M in (A, B):
+            x = fz.factor(M)(b)
+            assert np.abs(x - spla.spsolve(M, b)).max() < 1e-9 * np.abs(x).max()
+        with pytest.raises(FlatteningError, match="not positive definite"):
+            linalg.factor_spd((A - 1.0 * sp.eye(n * n)).tocsc(), "cvxopt")
+    assert dict(cholmod.options) == before
+    assert linalg.spd_backend("auto", n=linalg.SMALL_ROWS - 1) == "superlu"
 
 
 def test_half_edge_twins_pair_opposite_half_edges():

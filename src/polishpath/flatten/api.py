@@ -10,17 +10,17 @@ from .. import meshops
 from ..errors import FlatteningError, ParameterError
 from ..types import Flattening, Provenance, Region, Surface
 from .metrics import flattening_metrics
-from .topology import check_disc_mesh, fill_holes, outer_loop_index
+from .topology import corner_tables, disc_topology, fill_holes, outer_loop_index
 
 METHODS = ("mabf", "abf", "lscm", "projection")
 LAYOUTS = ("midpoint", "least_squares", "midpoint_area")
 
 
-def _layout(name: str, v, f, angles, solver: str) -> np.ndarray:
+def _layout(name: str, v, f, angles, solver: str, twins=None) -> np.ndarray:
     from .layout import least_squares_layout, midpoint_layout
 
     if name == "midpoint":
-        return midpoint_layout(v, f, angles, sizes="propagate")
+        return midpoint_layout(v, f, angles, sizes="propagate", twins=twins)
     if name == "midpoint_area":
         return midpoint_layout(v, f, angles, sizes="area")
     return least_squares_layout(v, f, angles, solver=solver)
@@ -134,7 +134,8 @@ def flatten(
     t_start = time.perf_counter()
     v = surface.vertices
     f = surface.faces
-    loops = check_disc_mesh(v, f)
+    topo = disc_topology(v, f)
+    loops = topo.loops
     F, V = len(f), len(v)
     solver = options.get("solver", "auto")
     min_angle = float(options.get("min_angle", np.radians(1.0)))
@@ -161,7 +162,13 @@ def flatten(
         if n_virtual:
             fw = np.ones(len(ff))
             fw[F:] = hole_weight
+        # the filled mesh's boundary is the outer loop (the hole rims became interior)
+        bmask = topo.boundary_mask
+        if n_virtual:
+            bmask = np.zeros(len(vf), dtype=bool)
+            bmask[loops[outer_loop_index(v, loops)]] = True
         t0 = time.perf_counter()
+        tables = corner_tables(len(vf), ff, boundary_mask=bmask)
         if method == "mabf":
             from .mabf import mabf_angles
 
@@ -169,14 +176,11 @@ def flatten(
             if weights not in ("auto", "uniform", "inverse_square"):
                 raise ParameterError(f"Unknown MABF weights {weights!r}.", "Use 'auto', 'uniform' or 'inverse_square'.")
             opt_tol = float(options.get("opt_tol", 1e-4))
-            kw = dict(min_angle=min_angle, tol=tol, max_iter=int(options.get("max_iter", 50)), face_weight=fw, solver=solver,
-                      opt_tol=opt_tol)
-            used = "uniform" if weights == "auto" else weights
-            angles, res, st = mabf_angles(vf, ff, weights=used, stop_on_damping=(weights == "auto"), **kw)
-            if st.get("stopped_on_damping"):
-                used = "inverse_square"
-                angles, res, st = mabf_angles(vf, ff, weights=used, **kw)
-            params.update(weights=used, solver=solver, linear=st.get("linear", "none"))
+            # "auto": uniform, inverse-square from the start again if a step drives a sliver to zero
+            angles, res, st = mabf_angles(vf, ff, weights=weights, tables=tables, min_angle=min_angle, tol=tol,
+                                          max_iter=int(options.get("max_iter", 50)), face_weight=fw, solver=solver,
+                                          opt_tol=opt_tol)
+            params.update(weights=st["weights"], solver=solver, linear=st.get("linear", "none"))
             if st.get("linear") == "pcg":
                 params["opt_tol"] = opt_tol  # the direct solve (filled holes) optimises to the end
             extra["factorizations"] = float(st["factorizations"])
@@ -195,11 +199,11 @@ def flatten(
                 "Try weights='inverse_square', a larger min_angle, more max_iter, or the lscm method (--method lscm).",
             )
         t0 = time.perf_counter()
-        uvf = _layout(layout, vf, ff, angles, solver)
+        uvf = _layout(layout, vf, ff, angles, solver, twins=None if n_virtual else (topo.twin_face, topo.twin_slot))
         timings["layout"] = time.perf_counter() - t0
         uv = uvf[:V]
         angles = angles[:F]
-        n_int_real = int(np.count_nonzero(np.nonzero(_interior_mask(len(vf), ff))[0] < V))
+        n_int_real = int(np.count_nonzero(tables.interior[:V]))
         residuals = {
             "triangle": res["triangle"][:F],
             "vertex": res["vertex"][:n_int_real],
@@ -212,7 +216,7 @@ def flatten(
     if method == "lscm":
         angles = meshops.corner_angles(uv, f)
     timings["total"] = time.perf_counter() - t_start
-    metrics = flattening_metrics(surface, uv)
+    metrics = flattening_metrics(surface, uv, boundary_edges=topo.boundary_edges)
     for k, r in residuals.items():
         metrics[f"max_{k}_residual"] = float(np.abs(r).max()) if len(r) else 0.0
     metrics.update(extra)
@@ -237,13 +241,6 @@ def flatten(
                 "less curved pieces, or pass check=False to inspect the result.",
             )
     return flat
-
-
-def _interior_mask(n_vertices: int, faces: np.ndarray) -> np.ndarray:
-    m = ~meshops.boundary_vertex_mask(n_vertices, faces)
-    used = np.zeros(n_vertices, dtype=bool)
-    used[np.asarray(faces).ravel()] = True
-    return m & used
 
 
 def boundary_region(flat: Flattening) -> Region:

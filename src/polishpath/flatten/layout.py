@@ -22,7 +22,7 @@ import scipy.sparse as sp
 from .. import meshops
 from ..errors import MultipleComponentsError, ParameterError
 from .linalg import factor_spd
-from .topology import half_edge_twin_slots
+from .topology import bfs_faces, half_edge_twin_slots
 
 
 def centre_face(faces: np.ndarray, twin_face: np.ndarray | None = None) -> int:
@@ -48,35 +48,8 @@ def centre_face(faces: np.ndarray, twin_face: np.ndarray | None = None) -> int:
     if len(boundary) == 0:
         return 0
     # multi-source BFS from every boundary face: the last face reached is the farthest
-    order, _ = _bfs_faces(twin_face, boundary.astype(np.int64))
+    order, _ = bfs_faces(twin_face, boundary.astype(np.int64))
     return int(order[-1])
-
-
-@numba.njit(cache=True)
-def _bfs_faces(twin_face, sources):  # pragma: no cover - numba
-    # Breadth-first order over face adjacency from one or several sources, with each
-    # face's parent (-1 for a source). A plain queue in numba: ~10x faster than
-    # building a scipy graph for scipy.sparse.csgraph.breadth_first_order.
-    F = twin_face.shape[0]
-    pred = np.full(F, -2, np.int64)
-    order = np.empty(F, np.int64)
-    tail = 0
-    for s in sources:
-        if pred[s] == -2:
-            pred[s] = -1
-            order[tail] = s
-            tail += 1
-    head = 0
-    while head < tail:
-        f = order[head]
-        head += 1
-        for k in range(3):
-            g = twin_face[f, k]
-            if g >= 0 and pred[g] == -2:
-                pred[g] = f
-                order[tail] = g
-                tail += 1
-    return order[:tail], pred
 
 
 @numba.njit(cache=True)
@@ -135,6 +108,7 @@ def midpoint_layout(
     *,
     sizes: str = "propagate",
     seed_face: int | None = None,
+    twins: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The paper's midpoint layout (section 2.2).
 
@@ -153,6 +127,9 @@ def midpoint_layout(
         equals the parent's copy (exact when the angles are consistent).
     seed_face : int, optional
         First triangle; default :func:`centre_face`.
+    twins : (twin_face, twin_slot), optional
+        The half-edge twins of ``faces`` when the caller has them
+        (:func:`topology.half_edge_twin_slots` otherwise).
 
     Returns
     -------
@@ -164,12 +141,12 @@ def midpoint_layout(
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
     F = len(f)
-    twin_face, twin_slot = half_edge_twin_slots(f)
+    twin_face, twin_slot = half_edge_twin_slots(f) if twins is None else twins
     seed = centre_face(f, twin_face) if seed_face is None else int(seed_face)
     if not 0 <= seed < F:
         raise ParameterError(f"seed_face {seed} is not a face index (the mesh has {F} faces).",
                              "Pass an index in [0, number of faces) or leave seed_face out.")
-    order, pred = _bfs_faces(twin_face, np.array([seed], dtype=np.int64))
+    order, pred = bfs_faces(twin_face, np.array([seed], dtype=np.int64))
     if len(order) < F:
         raise MultipleComponentsError("The mesh is in several pieces; the midpoint layout needs one connected patch.",
                                       "Flatten each component separately (load_surface(..., component='largest')).")

@@ -5,8 +5,12 @@ Backends, best first (``"auto"`` takes the first one installed):
 * ``"sksparse"`` - CHOLMOD through scikit-sparse (supernodal, METIS/AMD, the
   symbolic analysis can be reused for several matrices of one pattern); needs
   the Debian package ``libsuitesparse-dev`` to build.
+* ``"cvxopt"`` - CHOLMOD through cvxopt (a core dependency: wheels for every
+  platform, SuiteSparse bundled). One AMD ordering per pattern, a cheap symbolic
+  step per matrix with that ordering, supernodal numeric factorisations on big
+  systems and simplicial ones below :data:`SUPERNODAL_ROWS` rows (see there).
 * ``"cholmod"`` - CHOLMOD through the small ``cholespy`` wheel (no reuse of the
-  analysis; slower than scikit-sparse here).
+  analysis; slower than the two above here).
 * ``"superlu"`` - scipy's SuperLU; always there.
 
 :func:`factor_spd` factorises one matrix; :class:`SpdFactorizer` analyses a
@@ -24,7 +28,22 @@ import scipy.sparse.linalg as spla
 
 from ..errors import FlatteningError
 
-BACKENDS = ("auto", "sksparse", "cholmod", "superlu")
+BACKENDS = ("auto", "sksparse", "cvxopt", "cholmod", "superlu")
+
+# cvxopt's CHOLMOD: supernodal numeric factorisations are 3-4x faster than simplicial
+# ones on these 1-ring matrices, but each supernodal solve (one right-hand side, many
+# small supernodes) costs about 2x a simplicial one. MABF's Schur CG makes 25-160 solves
+# for its two factorisations; measured (2-core machine): 49.6k rows, 27 solves:
+# supernodal 0.33 s, simplicial 0.67 s; 8.3k rows (lion), 159 solves: supernodal 0.15 s,
+# simplicial 0.10 s; 25.8k rows (face) a tie.
+SUPERNODAL_ROWS = 30000
+
+# "auto" keeps scipy's SuperLU below this many rows. There fixed costs dominate and
+# CHOLMOD is only 5-20 % faster (a whole MABF flattening of 1-5k triangles: 8-35 ms);
+# the threshold keeps the outputs of small jobs identical to the releases before CHOLMOD
+# became the default (a different factorisation changes the last digits of the layout,
+# ~1e-13 mm), among them the byte-for-byte reference job of the tests (1.5k rows).
+SMALL_ROWS = 2000
 
 
 def _have(module: str) -> bool:
@@ -35,19 +54,23 @@ def _have(module: str) -> bool:
     return True
 
 
-def spd_backend(backend: str = "auto") -> str:
-    """The backend :func:`factor_spd` will use: ``"sksparse"``, ``"cholmod"`` or ``"superlu"``.
+def spd_backend(backend: str = "auto", n: int | None = None) -> str:
+    """The backend :func:`factor_spd` will use: ``"sksparse"``, ``"cvxopt"``, ``"cholmod"`` or ``"superlu"``.
 
-    An explicitly requested backend that is not installed falls back like ``"auto"``.
+    ``"auto"`` takes the first installed in that order, and ``"superlu"`` for
+    systems of fewer than :data:`SMALL_ROWS` rows ``n``. An explicitly requested
+    backend that is not installed falls back like ``"auto"``.
     """
     if backend not in BACKENDS:
         from ..errors import ParameterError
 
         raise ParameterError(f"Unknown sparse solver {backend!r}.", f"Use one of {', '.join(BACKENDS)}.")
-    if backend == "superlu":
-        return backend
+    if backend == "superlu" or (backend == "auto" and n is not None and n < SMALL_ROWS):
+        return "superlu"
     if backend in ("auto", "sksparse") and _have("sksparse.cholmod"):
         return "sksparse"
+    if backend in ("auto", "sksparse", "cvxopt") and _have("cvxopt.cholmod"):
+        return "cvxopt"
     if backend in ("auto", "sksparse", "cholmod") and _have("cholespy"):
         return "cholmod"
     if backend == "cholmod" and _have("sksparse.cholmod"):
@@ -69,7 +92,7 @@ def factor_spd(S: sp.spmatrix, backend: str = "auto") -> Callable[[np.ndarray], 
     ----------
     S : (n, n) sparse
         Symmetric positive definite (both triangles stored).
-    backend : {"auto", "cholmod", "superlu"}
+    backend : {"auto", "sksparse", "cvxopt", "cholmod", "superlu"}
 
     Returns
     -------
@@ -81,10 +104,10 @@ def factor_spd(S: sp.spmatrix, backend: str = "auto") -> Callable[[np.ndarray], 
     FlatteningError
         When the matrix is singular.
     """
-    which = spd_backend(backend)
     n = S.shape[0]
-    if which == "sksparse":
-        return SpdFactorizer(S, "sksparse").factor(S)
+    which = spd_backend(backend, n)
+    if which in ("sksparse", "cvxopt"):
+        return SpdFactorizer(S, which).factor(S)
     if which == "cholmod":
         from cholespy import CholeskySolverD, MatrixType
 
@@ -119,7 +142,9 @@ class SpdFactorizer:
     """Factorise several SPD matrices that share one sparsity pattern.
 
     The symbolic analysis (fill-reducing ordering, elimination tree) is done
-    once, in the constructor, when the backend allows it (scikit-sparse);
+    once, in the constructor, when the backend allows it (scikit-sparse; with
+    cvxopt the AMD ordering is computed once and each :meth:`factor` makes a
+    symbolic step with it, since cvxopt factorises in place);
     other backends analyse at every :meth:`factor`.
 
     Parameters
@@ -128,12 +153,12 @@ class SpdFactorizer:
         A matrix with the common pattern (both triangles stored).
     backend : {"auto", "sksparse", "cholmod", "superlu"}
     ordering : {"amd", "metis", "nesdis"}
-        Fill-reducing ordering (scikit-sparse only).
+        Fill-reducing ordering (scikit-sparse only; cvxopt always uses AMD).
     """
 
     def __init__(self, pattern: sp.spmatrix, backend: str = "auto", ordering: str = "amd"):
-        self.backend = spd_backend(backend)
         self.n = pattern.shape[0]
+        self.backend = spd_backend(backend, self.n)
         self._analysis = None
         if self.backend == "sksparse":
             from sksparse.cholmod import analyze
@@ -141,6 +166,12 @@ class SpdFactorizer:
             # AMD, or METIS on big meshes: METIS orders ~20-50% less fill on these
             # 2D-mesh patterns, but its analysis costs more than that saves below ~30k rows
             self._analysis = analyze(sp.csc_matrix(pattern), mode="supernodal", ordering_method=ordering)
+        elif self.backend == "cvxopt":
+            import cvxopt.amd
+
+            self._lower = _CvxLower(pattern)
+            self._perm = cvxopt.amd.order(self._lower.matrix(pattern))
+            self._supernodal = 2 if self.n >= SUPERNODAL_ROWS else 0
 
     def factor(self, S: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
         """``solve(b) -> S^-1 b`` for a matrix ``S`` with the constructor's pattern."""
@@ -152,6 +183,8 @@ class SpdFactorizer:
             except CholmodNotPositiveDefiniteError as exc:
                 raise _singular(exc) from exc
             return fac.solve_A
+        if self.backend == "cvxopt":
+            return self._factor_cvxopt(S)
         if self.backend == "superlu":
             # SPD: no pivoting needed; symmetric mode with a minimum-degree ordering
             # of A + A^T (about 2x faster than COLAMD on these matrices)
@@ -164,3 +197,66 @@ class SpdFactorizer:
                 raise _singular(exc) from exc
             return lu.solve
         return factor_spd(S, self.backend)
+
+    def _factor_cvxopt(self, S: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
+        import cvxopt
+        from cvxopt import cholmod
+
+        A = self._lower.matrix(S)
+        saved = dict(cholmod.options)
+        # nmethods=1: the given AMD ordering only (CHOLMOD would otherwise also run its
+        # own AMD and keep the better one: twice the symbolic cost for the same order)
+        cholmod.options.update(supernodal=self._supernodal, nmethods=1, postorder=True)
+        try:
+            fac = cholmod.symbolic(A, p=self._perm, uplo="L")
+            cholmod.numeric(A, fac)
+        except ArithmeticError as exc:
+            raise _singular(exc) from exc
+        finally:
+            cholmod.options.clear()
+            cholmod.options.update(saved)
+        if not self._supernodal:
+            # the simplicial form is LDL', which does not stop at a pivot <= 0: check D
+            dinv = cvxopt.matrix(np.ones(self.n))
+            cholmod.solve(fac, dinv, sys=6)
+            d = np.asarray(dinv).ravel()
+            if not np.all(np.isfinite(d) & (d > 0)):
+                raise _singular(ValueError(f"{int(np.count_nonzero(~(d > 0)))} pivots <= 0"))
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            x = cvxopt.matrix(np.ascontiguousarray(np.ravel(b), dtype=np.float64))
+            cholmod.solve(fac, x)
+            return np.asarray(x).ravel()
+
+        return solve
+
+
+class _CvxLower:
+    """The lower triangle of matrices with one pattern as cvxopt sparse matrices: the
+    triplet indices are found once (cvxopt builds its matrices from triplets)."""
+
+    def __init__(self, pattern: sp.spmatrix):
+        C = sp.csc_matrix(pattern)
+        C.sort_indices()
+        n = C.shape[0]
+        col = np.repeat(np.arange(n), np.diff(C.indptr))
+        self._keep = np.nonzero(C.indices >= col)[0]
+        self._rows = C.indices[self._keep].astype(np.int64)
+        self._cols = col[self._keep]
+        self._indptr = C.indptr
+        self._indices = C.indices
+        self.n = n
+
+    def matrix(self, S: sp.spmatrix):
+        import cvxopt
+
+        C = sp.csc_matrix(S)
+        if not C.has_sorted_indices:
+            C.sort_indices()
+        if C.nnz != len(self._indices) or not (np.array_equal(C.indptr, self._indptr)
+                                               and np.array_equal(C.indices, self._indices)):
+            # a matrix with another pattern (explicit zeros dropped): its own triplets
+            col = np.repeat(np.arange(self.n), np.diff(C.indptr))
+            keep = C.indices >= col
+            return cvxopt.spmatrix(C.data[keep], C.indices[keep].astype(np.int64), col[keep], (self.n, self.n))
+        return cvxopt.spmatrix(C.data[self._keep], self._rows, self._cols, (self.n, self.n))

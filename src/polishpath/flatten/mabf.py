@@ -33,7 +33,7 @@ import scipy.sparse as sp
 from .. import meshops
 from ..errors import FlatteningError, ParameterError
 from .linalg import factor_spd
-from .schur import _Schur
+from .schur import _Schur, _SchurPattern
 from .topology import CornerTables, corner_tables, vertex_sum_matrix, wheel_pattern
 
 
@@ -123,6 +123,7 @@ def mabf_angles(
     faces: np.ndarray,
     *,
     weights: str = "uniform",
+    tables: CornerTables | None = None,
     min_angle: float = np.radians(1.0),
     tol: float = 1e-8,
     max_iter: int = 50,
@@ -142,9 +143,15 @@ def mabf_angles(
         mm.
     faces : (F, 3) int
         A manifold disc (holes filled beforehand, see :func:`topology.fill_holes`).
-    weights : {"uniform", "inverse_square"}
+    weights : {"uniform", "inverse_square", "auto"}
         ``"uniform"``: the paper's Eq. 4, ``||alpha - beta||^2``; ``"inverse_square"``:
-        ABF's ``sum ((alpha - beta) / beta)^2``.
+        ABF's ``sum ((alpha - beta) / beta)^2``; ``"auto"``: uniform, and
+        inverse-square from the start again as soon as a uniform step would drive an
+        angle to zero (slivers); the second attempt reuses the first one's corner
+        tables, 1-ring pattern and fill-reducing ordering. ``stats["weights"]`` says
+        which were used.
+    tables : CornerTables, optional
+        :func:`topology.corner_tables` of ``(vertices, faces)`` when the caller has them.
     min_angle : float
         Target angles are clamped to ``[min_angle, pi - 2 min_angle]``, radians.
     tol : float
@@ -199,7 +206,7 @@ def mabf_angles(
     residuals : dict of str -> ndarray
         See :func:`constraint_residuals`.
     stats : dict
-        ``iterations``, ``converged`` (largest residual below ``tol``),
+        ``weights`` (used), ``iterations``, ``converged`` (largest residual below ``tol``),
         ``factorizations``, ``n_interior``, ``schur_size``, ``schur_nnz`` (direct),
         ``pcg_iterations``, ``projection_steps``, ``trace`` (per step: largest
         residual, CG tolerance, CG iterations, ``"optimise"`` or ``"project"``) and
@@ -215,17 +222,35 @@ def mabf_angles(
     t0 = time.perf_counter()
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
-    F = len(f)
-    t = corner_tables(len(v), f)
+    if weights not in ("uniform", "inverse_square", "auto"):
+        raise ParameterError(f"Unknown MABF weights {weights!r}.", "Use 'uniform', 'inverse_square' or 'auto'.")
+    t = corner_tables(len(v), f) if tables is None else tables
     beta_raw = _corner_angles(v, f)
+    kw = dict(min_angle=min_angle, tol=tol, max_iter=max_iter, refactor=refactor, face_weight=face_weight, solver=solver,
+              linear=linear, stall=stall, opt_tol=opt_tol, t0=t0, reuse={})
+    if weights == "auto":
+        angles, res, stats = _mabf_solve(t, beta_raw, "uniform", stop_on_damping=True, **kw)
+        if not stats.get("stopped_on_damping"):
+            stats["weights"] = "uniform"
+            return angles, res, stats
+        weights = "inverse_square"
+        stop_on_damping = False
+    angles, res, stats = _mabf_solve(t, beta_raw, weights, stop_on_damping=stop_on_damping, **kw)
+    stats["weights"] = weights
+    return angles, res, stats
+
+
+def _mabf_solve(t, beta_raw, weights, *, min_angle, tol, max_iter, refactor, face_weight, stop_on_damping, solver,
+                linear, stall, opt_tol, t0, reuse):
+    """:func:`mabf_angles` for one choice of weights; ``reuse`` keeps what a second
+    attempt with other weights can use again (the pcg solve's pattern and ordering)."""
+    F = t.n_faces
     beta = np.clip(beta_raw, min_angle, np.pi - 2.0 * min_angle)
     n_clamped = int(np.count_nonzero(beta != beta_raw))
     if weights == "uniform":
         dinv = np.ones(3 * F)  # W^-1
-    elif weights == "inverse_square":
-        dinv = beta**2
     else:
-        raise ParameterError(f"Unknown MABF weights {weights!r}.", "Use 'uniform' or 'inverse_square'.")
+        dinv = beta**2
     if face_weight is not None:
         dinv = dinv / np.repeat(np.asarray(face_weight, dtype=np.float64), 3)
 
@@ -252,7 +277,8 @@ def mabf_angles(
     if linear == "pcg":
         try:
             return _mabf_pcg(t, beta, dinv, alpha, dict(stats), tol=tol, max_iter=max_iter, min_angle=min_angle,
-                             stop_on_damping=stop_on_damping, solver=solver, t0=t0, stall=stall, opt_tol=opt_tol)
+                             stop_on_damping=stop_on_damping, solver=solver, t0=t0, stall=stall, opt_tol=opt_tol,
+                             reuse=reuse)
         except _PcgStalled:
             stats["pcg_stalled"] = True  # fall back to the direct solve below, from the start
     stats["linear"] = "direct"
@@ -359,7 +385,8 @@ def _kernel_damped(alpha, delta, floor):  # pragma: no cover - numba
     return s
 
 
-def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_damping, solver, t0, stall, opt_tol):
+def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_damping, solver, t0, stall, opt_tol,
+              reuse):
     """Inexact Newton on the wheel condition; each linearised QP's interior-vertex
     system ``S = J2 P J2^T`` is solved matrix-free by :meth:`_Schur.pcg` (exact
     elimination with ``B P B^T``, constant; CG preconditioned by ``Jw P Jw^T`` at the
@@ -373,7 +400,9 @@ def _mabf_pcg(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, stop_on_
     move the angles by ~1e-5 rad; a projection starts from the constraint residual."""
     F, Vi = t.n_faces, t.n_interior
     ts = time.perf_counter()
-    sch = _Schur(t, dinv, solver)
+    if "pattern" not in reuse:
+        reuse["pattern"] = _SchurPattern(t, solver)
+    sch = _Schur(t, dinv, solver, reuse["pattern"])
     stats["backend"] = sch.factorizer.backend
     stats["linear"] = "pcg"
     stats["factorizations"] = 1

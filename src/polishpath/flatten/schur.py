@@ -223,6 +223,25 @@ def _kernel_scatter(slot, vals, nnz):  # pragma: no cover - numba
     return out
 
 
+class _SchurPattern:
+    """What :class:`_Schur` needs that depends on the mesh only, not on the weights: the
+    interior-vertex row of each face corner, the 1-ring CSC pattern of ``K`` and ``M``
+    (numba counting sort, with the slot of each face's 9 local entries) and the sparse
+    factoriser with its fill-reducing analysis of that pattern."""
+
+    def __init__(self, t: CornerTables, solver: str):
+        self.rows = np.ascontiguousarray(t.interior_index[t.faces])  # (F, 3), -1 on boundary vertices
+        n = t.n_interior
+        self.indptr, self.indices, self.slot = _kernel_pattern(self.rows, n)
+        self.nnz = len(self.indices)
+        ones = sp.csc_matrix((_kernel_scatter(self.slot, np.ones(9 * t.n_faces), self.nnz), self.indices, self.indptr),
+                             shape=(n, n))
+        # AMD: METIS orders 25-30 % less fill on these 2D-mesh patterns, but its
+        # analysis costs 7x AMD's (0.75 vs 0.1 s at 100k rows, 3.4 vs 0.5 s at 400k),
+        # more than its cheaper factorisations and solves save in a run
+        self.factorizer = SpdFactorizer(ones, solver, ordering="amd")
+
+
 class _Schur:
     """The reduced (interior-vertex) system ``S = J2 P J2^T``, ``J2 = [B; Jw]``, applied
     matrix-free face by face; ``P`` is the per-face projection
@@ -238,20 +257,15 @@ class _Schur:
     (0, 1] instead of pairing around 1. ``K`` and ``M`` share the 1-ring pattern and
     one symbolic analysis."""
 
-    def __init__(self, t: CornerTables, dinv: np.ndarray, solver: str):
-        f = t.faces
-        F = len(f)
+    def __init__(self, t: CornerTables, dinv: np.ndarray, solver: str, pattern: _SchurPattern | None = None):
+        F = t.n_faces
         self.F, self.Vi = F, t.n_interior
         self.dinv = np.ascontiguousarray(dinv, dtype=np.float64)
         self.dsum = self.dinv.reshape(-1, 3).sum(axis=1)
-        self.rows = np.ascontiguousarray(t.interior_index[f])  # (F, 3), -1 on boundary vertices
-        self._indptr, self._indices, self._slot = _kernel_pattern(self.rows, self.Vi)
-        self._nnz = len(self._indices)
-        # AMD: METIS orders 25-30 % less fill on these 2D-mesh patterns, but its
-        # analysis costs 7x AMD's (0.75 vs 0.1 s at 100k rows, 3.4 vs 0.5 s at 400k),
-        # more than its cheaper factorisations and solves save in a run
-        ordering = "amd"
-        self.factorizer = SpdFactorizer(self._csc(np.ones(9 * F)), solver, ordering=ordering)
+        pat = _SchurPattern(t, solver) if pattern is None else pattern
+        self.rows = pat.rows
+        self._indptr, self._indices, self._slot, self._nnz = pat.indptr, pat.indices, pat.slot, pat.nnz
+        self.factorizer = pat.factorizer
         self.cot = np.zeros(3 * F)
         self.K = self._block(None)
         self.solve_K = self.factorizer.factor(self.K)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 
@@ -19,6 +20,31 @@ from ..errors import (
     NonFiniteError,
     NonManifoldError,
 )
+
+
+@dataclass(frozen=True)
+class DiscTopology:
+    """What :func:`disc_topology` finds out about a valid disc mesh (with holes), kept so
+    the later stages (corner tables, layout, metrics) do not find it again.
+
+    Attributes
+    ----------
+    loops : list of (n,) int64
+        Boundary loops, longest first (as :func:`polishpath.meshops.boundary_loops`).
+    twin_face, twin_slot : (F, 3) int64
+        Face and local edge index across each half-edge, -1 on the boundary
+        (as :func:`half_edge_twin_slots`).
+    boundary_edges : (B, 2) int64
+        Boundary half-edges in half-edge order (as :func:`polishpath.meshops.boundary_edges`).
+    boundary_mask : (V,) bool
+        True on boundary vertices.
+    """
+
+    loops: list
+    twin_face: np.ndarray
+    twin_slot: np.ndarray
+    boundary_edges: np.ndarray
+    boundary_mask: np.ndarray
 
 
 def check_disc_mesh(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
@@ -42,6 +68,26 @@ def check_disc_mesh(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]
     MultipleComponentsError
         With a message saying what is wrong and what to do.
     """
+    return disc_topology(vertices, faces).loops
+
+
+def disc_topology(vertices: np.ndarray, faces: np.ndarray) -> DiscTopology:
+    """:func:`check_disc_mesh`, returning the half-edge structure it builds as well.
+
+    One sort of the undirected edge keys gives the edge counts (non-manifold edges),
+    the pairs of half-edges (orientation, twins), the boundary and the edge count for
+    the Euler characteristic (before: four ``np.unique`` calls and a second sort).
+
+    Returns
+    -------
+    DiscTopology
+
+    Raises
+    ------
+    NonFiniteError, DegenerateMeshError, NonManifoldError, ClosedMeshError,
+    MultipleComponentsError
+        As :func:`check_disc_mesh`.
+    """
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
     if len(f) == 0:
@@ -58,32 +104,45 @@ def check_disc_mesh(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]
             "Some faces repeat a vertex (zero-area triangles).",
             "Load the mesh with polishpath.surfaces.load_surface, which removes them.",
         )
-    # integer edge keys instead of np.unique(axis=0): several times faster on big meshes
+    F = len(f)
     nv = np.int64(len(v))
     a = f.ravel()
     b = np.roll(f, -1, axis=1).ravel()
     ukey = np.minimum(a, b) * nv + np.maximum(a, b)
-    _, counts = np.unique(ukey, return_counts=True)
+    order = np.argsort(ukey)
+    sk = ukey[order]
+    new = np.empty(len(sk), dtype=bool)
+    new[0] = True
+    np.not_equal(sk[1:], sk[:-1], out=new[1:])
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.append(starts, len(sk)))
     if np.any(counts > 2):
         raise NonManifoldError(
             f"{int((counts > 2).sum())} edges are shared by more than two faces; a flattening needs a manifold patch.",
             "Repair the mesh (remove the extra faces) or cut it into manifold pieces.",
         )
-    # every directed half-edge must be used once (consistent orientation)
-    _, dcounts = np.unique(a * nv + b, return_counts=True)
-    if np.any(dcounts > 1):
+    # every edge now has one or two half-edges; two must run in opposite directions
+    i = starts[counts == 2]
+    h1, h2 = order[i], order[i + 1]
+    same = a[h1] == a[h2]
+    if np.any(same):
         raise NonManifoldError(
-            f"{int((dcounts > 1).sum())} edges are traversed twice in the same direction: the faces are not consistently oriented.",
+            f"{int(same.sum())} edges are traversed twice in the same direction: the faces are not consistently oriented.",
             "Fix the winding (trimesh.repair.fix_winding) or load the mesh with polishpath.surfaces.load_surface.",
         )
-    from scipy.sparse.csgraph import connected_components
+    he = np.full(3 * F, -1, dtype=np.int64)
+    he[h1] = h2
+    he[h2] = h1
+    twin_face = np.where(he >= 0, he // 3, -1).reshape(F, 3)
+    twin_slot = np.where(he >= 0, he % 3, -1).reshape(F, 3)
+    reached = len(bfs_faces(twin_face, np.zeros(1, dtype=np.int64))[0])
+    if reached < F:
+        from scipy.sparse.csgraph import connected_components
 
-    tw = half_edge_twin_slots(f)[0]
-    src = np.repeat(np.arange(len(f)), 3)
-    m = tw.ravel() >= 0
-    g = sp.csr_matrix((np.ones(int(m.sum())), (src[m], tw.ravel()[m])), shape=(len(f), len(f)))
-    n_comp = int(connected_components(g, directed=False)[0])
-    if n_comp > 1:
+        src = np.repeat(np.arange(F), 3)
+        m = he >= 0
+        g = sp.csr_matrix((np.ones(int(m.sum())), (src[m], twin_face.ravel()[m])), shape=(F, F))
+        n_comp = int(connected_components(g, directed=False)[0])
         raise MultipleComponentsError(
             f"The mesh has {n_comp} disconnected pieces; a flattening maps one piece.",
             "Flatten each piece separately (trimesh split) or keep the largest.",
@@ -94,23 +153,53 @@ def check_disc_mesh(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]
             "The mesh is closed (it has no boundary), so it cannot be flattened without cuts.",
             "Cut it open along a seam, or give only the patch to be polished.",
         )
-    nb = int(np.count_nonzero(tw < 0))
-    if sum(len(lp) for lp in loops) != nb:
+    bhe = np.flatnonzero(he < 0)
+    if sum(len(lp) for lp in loops) != len(bhe):
         raise NonManifoldError(
             "A boundary vertex is shared by two boundary loops (a pinched, non-manifold vertex).",
             "Repair the mesh so every vertex fan is one disc.",
         )
     # Euler characteristic of a disc with h holes: V - E + F = 2 - (h + 1) ... = 1 - h
-    used = np.unique(f)
-    n_edges = len(counts)
-    chi = len(used) - n_edges + len(f)
+    n_used = int(np.count_nonzero(np.bincount(a, minlength=len(v))))
+    chi = n_used - len(starts) + F
     if chi != 2 - len(loops):
         raise NonManifoldError(
             f"The mesh has Euler characteristic {chi} with {len(loops)} boundary loop(s): it has handles (genus > 0), "
             "so it is not a disc with holes.",
             "Cut the handles open before flattening.",
         )
-    return loops
+    be = np.stack([a[bhe], b[bhe]], axis=1)
+    mask = np.zeros(len(v), dtype=bool)
+    mask[be.ravel()] = True
+    return DiscTopology(loops, twin_face, twin_slot, be, mask)
+
+
+@numba.njit(cache=True)
+def bfs_faces(twin_face, sources):  # pragma: no cover - numba
+    """Breadth-first order over face adjacency from one or several sources, with each
+    face's parent (-1 for a source): ``(order, pred)``, int64 arrays. A plain queue in
+    numba: ~10x faster than building a scipy graph for
+    ``scipy.sparse.csgraph.breadth_first_order``."""
+    F = twin_face.shape[0]
+    pred = np.full(F, -2, np.int64)
+    order = np.empty(F, np.int64)
+    tail = 0
+    for s in sources:
+        if pred[s] == -2:
+            pred[s] = -1
+            order[tail] = s
+            tail += 1
+    head = 0
+    while head < tail:
+        f = order[head]
+        head += 1
+        for k in range(3):
+            g = twin_face[f, k]
+            if g >= 0 and pred[g] == -2:
+                pred[g] = f
+                order[tail] = g
+                tail += 1
+    return order[:tail], pred
 
 
 @dataclass(frozen=True)
@@ -140,11 +229,16 @@ class CornerTables:
         return int(len(self.faces))
 
 
-def corner_tables(n_vertices: int, faces: np.ndarray) -> CornerTables:
-    """Build the :class:`CornerTables` of a mesh (vectorised, no loops over faces)."""
+def corner_tables(n_vertices: int, faces: np.ndarray, boundary_mask: np.ndarray | None = None) -> CornerTables:
+    """Build the :class:`CornerTables` of a mesh (vectorised, no loops over faces).
+
+    ``boundary_mask`` (V,) bool: the boundary vertices when the caller knows them
+    (see :class:`DiscTopology`), else found from ``faces``."""
     f = np.asarray(faces, dtype=np.int64)
     cv = f.ravel()
-    interior = ~meshops.boundary_vertex_mask(n_vertices, f)
+    if boundary_mask is None:
+        boundary_mask = meshops.boundary_vertex_mask(n_vertices, f)
+    interior = ~np.asarray(boundary_mask, dtype=bool)
     used = np.zeros(n_vertices, dtype=bool)
     used[cv] = True
     interior &= used
