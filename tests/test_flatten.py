@@ -439,7 +439,7 @@ def test_cvxopt_backend_reuses_one_ordering_for_several_matrices(monkeypatch):
     """CHOLMOD through cvxopt (the default for big systems): two matrices of one
     pattern, supernodal and simplicial, solve like scipy; its global options are
     restored; a matrix that is not positive definite raises FlatteningError."""
-    pytest.importorskip("cvxopt", reason="cvxopt (a core dependency) is not installed")
+    pytest.importorskip("cvxopt", reason="cvxopt (the cholmod extra, in the test extras) is not installed")
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
     from cvxopt import cholmod

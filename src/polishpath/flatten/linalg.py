@@ -5,8 +5,8 @@ Backends, best first (``"auto"`` takes the first one installed):
 * ``"sksparse"`` - CHOLMOD through scikit-sparse (supernodal, METIS/AMD, the
   symbolic analysis can be reused for several matrices of one pattern); needs
   the Debian package ``libsuitesparse-dev`` to build.
-* ``"cvxopt"`` - CHOLMOD through cvxopt (a core dependency: wheels for every
-  platform, SuiteSparse bundled). One AMD ordering per pattern, a cheap symbolic
+* ``"cvxopt"`` - CHOLMOD through cvxopt (``pip install 'polishpath[cholmod]'``:
+  wheels for every platform, SuiteSparse bundled; opt-in because it is GPL-3). One AMD ordering per pattern, a cheap symbolic
   step per matrix with that ordering, supernodal numeric factorisations on big
   systems and simplicial ones below :data:`SUPERNODAL_ROWS` rows (see there).
 * ``"cholmod"`` - CHOLMOD through the small ``cholespy`` wheel (no reuse of the
