@@ -27,17 +27,22 @@ __all__ = ["write_path_csv", "read_path_csv", "write_xyz", "xyz_writer", "read_x
 PATH_CSV_COLUMNS = ("index", "i", "j", "u", "v", "x", "y", "z", "nx", "ny", "nz", "dwell_time")
 
 
+def _writable_path(file) -> Path:
+    """``file`` as a Path whose folder exists (else an ExportError naming it)."""
+    path = Path(file)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ExportError(f"Cannot write {path}: folder {folder} does not exist.", "Create the folder first.")
+    return path
+
+
 @contextlib.contextmanager
 def _text_out(file) -> Iterator[io.TextIOBase]:
     """Yield a text stream; for a path, write a temp file and rename it on success."""
     if hasattr(file, "write"):
         yield file
         return
-    path = Path(file)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ExportError(f"Cannot write {path}: folder {folder} does not exist.", "Create the folder first.")
-    with atomic_open(path, "w") as fh:
+    with atomic_open(_writable_path(file), "w") as fh:
         yield fh
 
 
@@ -67,11 +72,7 @@ def _bytes_out(file) -> Iterator:
     if hasattr(file, "write"):
         yield file.write if _is_binary(file) else (lambda b: file.write(b.decode("ascii")))
         return
-    path = Path(file)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ExportError(f"Cannot write {path}: folder {folder} does not exist.", "Create the folder first.")
-    with atomic_open(path, "wb") as fh:
+    with atomic_open(_writable_path(file), "wb") as fh:
         yield fh.write
 
 

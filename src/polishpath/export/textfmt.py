@@ -75,20 +75,7 @@ def _put_fixed(out, pos, x, scale, decimals):  # pragma: no cover - numba
     n = np.int64(k)
     ip = n // np.int64(scale)
     fp = n - ip * np.int64(scale)
-    # integer part
-    start = pos
-    if ip == 0:
-        out[pos] = 48
-        pos += 1
-    while ip > 0:
-        out[pos] = 48 + ip % 10
-        ip //= 10
-        pos += 1
-    i, j = start, pos - 1
-    while i < j:
-        out[i], out[j] = out[j], out[i]
-        i += 1
-        j -= 1
+    pos = _put_int(out, pos, ip)  # integer part (ip >= 0: the sign is written above)
     if decimals > 0:
         out[pos] = 46  # '.'
         pos += 1

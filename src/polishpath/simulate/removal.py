@@ -159,6 +159,15 @@ def process_noise_factor(arc_mm: np.ndarray, noise: ProcessNoise, seed: int, clo
     return np.maximum(0.0, 1.0 + noise.rms * eps)
 
 
+def _bilinear_cells(xy: np.ndarray, origin_mm, dx_mm: float):
+    """Lower-left pixel (i0, j0) of each point and its fractions (fx, fy) in [0, 1) inside that cell."""
+    gx = (xy[:, 0] - origin_mm[0]) / dx_mm
+    gy = (xy[:, 1] - origin_mm[1]) / dx_mm
+    i0 = np.floor(gx).astype(np.int64)
+    j0 = np.floor(gy).astype(np.int64)
+    return i0, j0, gx - i0, gy - j0
+
+
 def rasterize_time(xy: np.ndarray, t: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float):
     """Bilinear splat of timed samples onto a grid: time density, s/mm^2.
 
@@ -181,12 +190,7 @@ def rasterize_time(xy: np.ndarray, t: np.ndarray, shape: tuple[int, int], origin
         Time of samples whose splat left the grid, s.
     """
     ny, nx = shape
-    gx = (xy[:, 0] - origin_mm[0]) / dx_mm
-    gy = (xy[:, 1] - origin_mm[1]) / dx_mm
-    i0 = np.floor(gx).astype(np.int64)
-    j0 = np.floor(gy).astype(np.int64)
-    fx = gx - i0
-    fy = gy - j0
+    i0, j0, fx, fy = _bilinear_cells(xy, origin_mm, dx_mm)
     idx, wts = [], []
     lost = 0.0
     for di, dj, w in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
@@ -296,12 +300,7 @@ def _splat_matrix(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: floa
     from scipy.sparse import csr_matrix
 
     ny, nx = shape
-    gx = (xy[:, 0] - origin_mm[0]) / dx_mm
-    gy = (xy[:, 1] - origin_mm[1]) / dx_mm
-    i0 = np.floor(gx).astype(np.int64)
-    j0 = np.floor(gy).astype(np.int64)
-    fx = gx - i0
-    fy = gy - j0
+    i0, j0, fx, fy = _bilinear_cells(xy, origin_mm, dx_mm)
     rows, cols, vals = [], [], []
     m = np.arange(len(xy))
     for di, dj, w in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
