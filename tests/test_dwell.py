@@ -327,3 +327,29 @@ def test_report_has_the_figuring_section(figured_job):
     page = (out / "report.html").read_text()
     assert 'id="figuring"' in page and "predicted residual" in page
     assert (out / "figures" / "figuring.png").stat().st_size > 10_000
+
+
+def test_residual_under_a_machine_schedule_counts_its_slow_downs(tmp_path):
+    # with --machine the feed schedule slows the samples; the predicted residual and the delivered
+    # times are of that schedule (each sample's period stretched by planned / scheduled feed), so the
+    # figuring's machine time is the schedule's machining time, not samples x period
+    from pathlib import Path
+
+    from polishpath.pipeline import JobConfig, run
+
+    (tmp_path / "err.toml").write_text(
+        "[zernike]\nordering = \"fringe\"\nradius_mm = 9.0\nunits = \"nm\"\n"
+        f"coefficients = {ZERNIKE}\npixel_mm = 0.1\n")
+    gentle = Path(__file__).resolve().parents[1] / "examples" / "machine-gentle.toml"
+    cfg = JobConfig(surface="xy-polynomial:radius=8,triangles=1500", spacing=0.5, seed=3,
+                    error_map=str(tmp_path / "err.toml"), tif=TIF_SPEC, report=False, machine=str(gentle),
+                    error_map_options={"ca_margin_mm": 1.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        job = run(cfg)
+    sched = job.schedule
+    assert sched["time_increase"] > 0.001  # the gentle machine does slow this path
+    pred = job.figuring_prediction
+    tool = job.tool_path
+    assert pred["machine_time_s"] == pytest.approx(sched["machining_time_s"], rel=0.01)
+    assert pred["machine_time_s"] > len(tool.samples) * tool.period_ms / 1000.0 * (1 + 0.5 * sched["time_increase"])

@@ -544,16 +544,20 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         pm = path_metrics(planar, region)
     prediction = None
     sched: dict[str, Any] = {}
+    sample_s = None  # the time each sample stands for: one period, unless a machine's schedule slows it
     if machine is not None:
         from .schedule import schedule_feeds
 
+        planned_feed = tool.feed_mm_min
         with progress.stage(f"feed schedule under {machine.name}", timings, "schedule"):
             tool, sched = schedule_feeds(tool, machine)
+        sample_s = tool.period_ms / 1000.0 * planned_feed / np.maximum(tool.feed_mm_min, 1e-300)
     if fig is not None:  # the residual of what the machine runs: the final (scheduled) samples
         from .dwell import predict_residual, region_times
 
         with progress.stage("figuring: residual of the machine-timed path", timings, "dwell_residual"):
-            prediction = predict_residual(fig, tool.samples, tool.period_ms, delivered_s=region_times(tool))
+            prediction = predict_residual(fig, tool.samples, tool.period_ms, sample_s=sample_s,
+                                          delivered_s=region_times(tool, sample_s))
     return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched,
                figuring=fig, figuring_prediction=prediction)
 

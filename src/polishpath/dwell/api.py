@@ -181,8 +181,10 @@ def _tif_params(tif) -> dict[str, Any]:
 
 
 def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float,
-                     delivered_s: np.ndarray | None = None) -> dict[str, Any]:
-    """Removal and residual of the machine-timed path: each sample stands for one interpolation period.
+                     delivered_s: np.ndarray | None = None,
+                     sample_s: np.ndarray | None = None) -> dict[str, Any]:
+    """Removal and residual of the machine-timed path: each sample stands for one interpolation period
+    (or its own time, ``sample_s``, where a machine's schedule slowed it).
 
     Parameters
     ----------
@@ -193,6 +195,9 @@ def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float,
     delivered_s : (N,) float, optional
         The time the samples spend in each point's region (:func:`~polishpath.dwell.delivery.region_times`):
         its relative difference from the solved times is reported.
+    sample_s : (M,) float, optional
+        The time each sample stands for, s; default one period each. After a
+        machine profile's schedule: the period stretched by planned / scheduled feed.
 
     Returns
     -------
@@ -203,14 +208,16 @@ def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float,
         ``delivered_s`` ``delivered_time_error_rms`` / ``_max`` (relative to the solved times).
     """
     s = np.asarray(samples_xyz, dtype=np.float64)
-    dt = period_ms / 1000.0
-    removal = removal_map(fig.target.grid, s[:, :2], np.full(len(s), dt), fig.tif)
+    if sample_s is None:
+        sample_s = np.full(len(s), period_ms / 1000.0)
+    sample_s = np.asarray(sample_s, dtype=np.float64)
+    removal = removal_map(fig.target.grid, s[:, :2], sample_s, fig.tif)
     valid = fig.target.valid
     residual = np.where(valid, fig.target.removal_nm - removal, np.nan)
     rr, rp = rms_pv(residual[valid])
     mr, _ = rms_pv(removal[valid])
     out = {"removal_nm": removal, "residual_nm": residual, "residual_rms_nm": rr, "residual_pv_nm": rp,
-           "removal_rms_nm": mr, "removal_mean_nm": float(np.mean(removal[valid])), "machine_time_s": len(s) * dt}
+           "removal_rms_nm": mr, "removal_mean_nm": float(np.mean(removal[valid])), "machine_time_s": float(sample_s.sum())}
     if delivered_s is not None:
         rel = (np.asarray(delivered_s, dtype=np.float64) - fig.times_s) / fig.times_s
         out["delivered_time_error_rms"] = float(np.sqrt(np.mean(rel**2)))

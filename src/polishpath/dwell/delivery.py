@@ -81,7 +81,7 @@ def _polyline_centroids(q: np.ndarray) -> np.ndarray:
     return c[:, :2]
 
 
-def region_times(tool_path) -> np.ndarray:
+def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
     """Time the machine-timed path spends in each dwell point's region, s (N,).
 
     ``tool_path`` is a :class:`~polishpath.types.ToolPath` (read through its
@@ -91,7 +91,9 @@ def region_times(tool_path) -> np.ndarray:
     sample parameters; a region's time is the difference at its ends (the
     regions of the smoothing stage: half-way between dwell parameters, the
     piece's ends for its first and last point). Not a count of samples, which
-    would be off by up to one period per region.
+    would be off by up to one period per region. ``sample_s`` (M,) s: the time
+    each sample stands for where it is not one period (a machine's schedule);
+    the time at a sample is then the sum of those before it in its piece.
     """
     dp = np.asarray(tool_path.dwell_params, dtype=np.float64)
     sp = np.asarray(tool_path.sample_params, dtype=np.float64)
@@ -110,6 +112,10 @@ def region_times(tool_path) -> np.ndarray:
             continue
         d = dp[idx]
         rb = np.concatenate([[s[0]], 0.5 * (d[1:] + d[:-1]), [s[-1]]])
-        tt = np.arange(len(s)) * T
+        if sample_s is None:
+            tt = np.arange(len(s)) * T
+        else:
+            w = np.asarray(sample_s, dtype=np.float64)[spieces[k]:spieces[k + 1]]
+            tt = np.concatenate([[0.0], np.cumsum(w[:-1])])
         out[idx] = np.diff(np.interp(rb, s, tt))
     return out
