@@ -24,7 +24,7 @@ checkout): data folders come in as arguments.
 
 How to fix a failure: move the shared code into polishpath/meshops.py (mesh
 maths), polishpath/pathops.py (path maths) or polishpath/types.py (data), or
-pass the data in from polishpath/pipeline.py; a new module or package gets its
+pass the data in from the polishpath/pipeline package; a new module or package gets its
 place in ORDER (or CORE) here.
 """
 
@@ -103,7 +103,7 @@ def test_imports_follow_the_data_flow(path):
             f"{path.relative_to(SRC)}:{line} imports polishpath.{name}, but {st} may only use "
             f"the core ({', '.join(sorted(CORE))}) and {sorted(ALLOWED[st]) or 'no other unit'}. "
             "Take the data as an argument (a polishpath.types dataclass) and wire the stages in "
-            "polishpath/pipeline.py, or move shared maths into polishpath/meshops.py / pathops.py."
+            "the polishpath/pipeline package, or move shared maths into polishpath/meshops.py / pathops.py."
         )
 
 
