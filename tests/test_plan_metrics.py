@@ -167,3 +167,99 @@ def test_spiral_baseline(star_region):
     r = np.hypot(*(p.uv - centre).T)
     assert np.all(np.diff(r) > 0)  # an Archimedean spiral runs outward from its centre
     assert 0.6 < m["coverage"] <= 1.0
+
+
+# ------------------------------------------- the grid-cell crossing counter
+
+
+def shapely_crossings(uv, pieces):
+    """The counter this one replaced: every pair of segments whose boxes overlap
+    (shapely's STRtree) tested with shapely's exact predicates."""
+    uv = np.asarray(uv, float)
+    segs = [(k, i) for k in range(len(pieces) - 1) for i in range(pieces[k], pieces[k + 1] - 1)]
+    if len(segs) < 2:
+        return 0
+    piece = np.array([k for k, _ in segs])
+    start = np.array([i for _, i in segs])
+    lines = shapely.linestrings(np.stack([uv[start], uv[start + 1]], axis=1))
+    left, right = shapely.STRtree(lines).query(lines, predicate="intersects")
+    sel = left < right
+    left, right = left[sel], right[sel]
+    cons = (piece[left] == piece[right]) & (start[left] + 1 == start[right])
+    d1 = uv[start[left] + 1] - uv[start[left]]
+    d2 = uv[start[right] + 1] - uv[start[right]]
+    cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    back = (np.abs(cross) <= 1e-12 * np.hypot(*d1.T) * np.hypot(*d2.T)) & ((d1 * d2).sum(axis=1) < 0)
+    return int((~cons).sum() + (cons & back).sum())
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    steps=st.lists(st.tuples(st.integers(-1, 1), st.integers(-1, 1)), min_size=1, max_size=60),
+    rotation=st.floats(0.0, 3.0),
+    scale=st.floats(0.05, 7.0),
+    cut=st.integers(0, 60),
+)
+def test_count_crossings_matches_shapely_on_rotated_grid_walks(steps, rotation, scale, cut):
+    # rotated grid points are collinear in exact arithmetic but not in floats: the
+    # cases where the float orientation's sign is uncertain and the exact one decides
+    ij = np.concatenate([[[0, 0]], np.cumsum(steps, axis=0)])
+    c, s = np.cos(rotation), np.sin(rotation)
+    uv = scale * ij @ np.array([[c, s], [-s, c]]) + [0.1, -3.3]
+    n = len(uv)
+    pieces = [0, cut, n] if 0 < cut < n else [0, n]
+    assert count_crossings(uv, pieces) == shapely_crossings(uv, pieces)
+
+
+def test_count_crossings_matches_shapely_on_random_segments():
+    rng = np.random.default_rng(5)
+    for n in (2, 3, 10, 200):
+        uv = rng.random((n, 2)) * 3
+        assert count_crossings(uv) == shapely_crossings(uv, [0, n])
+    # long steps across many cells next to many short ones
+    uv = np.concatenate([rng.random((300, 2)) * 0.2, [[-50, -50], [50, 50], [50, -50], [-50, 50]]])
+    assert count_crossings(uv) == shapely_crossings(uv, [0, len(uv)])
+
+
+def test_orientation_is_exact_where_floats_round():
+    from fractions import Fraction
+
+    from polishpath.plan.metrics import _orient
+
+    terms, expansion = np.empty(16), np.empty(16)
+    rng = np.random.default_rng(11)
+    uncertain = 0
+    for _ in range(3000):
+        a = rng.random(2) * 10
+        b = a + rng.random(2) * 10
+        t = rng.random()
+        c = a + t * (b - a) + rng.choice([0.0, 1e-15, -1e-15, 3e-16]) * rng.random(2)  # on or next to the line
+        exact = (Fraction(b[0]) - Fraction(a[0])) * (Fraction(c[1]) - Fraction(a[1])) - (
+            Fraction(b[1]) - Fraction(a[1])) * (Fraction(c[0]) - Fraction(a[0]))
+        want = (exact > 0) - (exact < 0)
+        naive = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        uncertain += int(np.sign(naive)) != want
+        assert _orient(a[0], a[1], b[0], b[1], c[0], c[1], terms, expansion) == want
+    assert uncertain > 50  # the plain float determinant gets many of these wrong
+
+
+def test_path_metrics_of_a_planned_path_match_direct_formulas():
+    t = np.linspace(0, 2 * np.pi, 90, endpoint=False)
+    region = Region(np.c_[14 * np.cos(t), 9 * np.sin(t)], (np.c_[np.cos(t[::-1]), np.sin(t[::-1])] * 3.0,))
+    for path in (plan(region, 0.5, seed=4), plan(region, 0.5, "raster", rotation=0.3)):
+        m = path_metrics(path, region)
+        same = np.ones(path.n_points - 1, dtype=bool)
+        same[np.asarray(path.pieces[1:-1]) - 1] = False
+        d = np.diff(path.uv, axis=0)[same]
+        c, s = np.cos(path.rotation), np.sin(path.rotation)
+        g = d @ np.array([[c, -s], [s, c]])  # grid frame
+        ang = np.arctan2(g[:, 1], g[:, 0])
+        keep = same[:-1] & same[1:]  # turns: consecutive steps of one piece
+        first = np.cumsum(same)[:-1][keep] - 1
+        turn = np.abs(np.angle(np.exp(1j * (ang[first + 1] - ang[first]))))
+        hist = np.bincount(np.round(np.degrees(turn) / 45).astype(int), minlength=5)[:5] / len(turn)
+        assert [m["turn_histogram"][str(45 * k)] for k in range(5)] == pytest.approx(hist, abs=1e-15)
+        distinct = len(np.unique(path.ij, axis=0))
+        assert m["coverage"] == pytest.approx(min(distinct, path.n_inside) / path.n_inside, abs=1e-15)
+        assert m["step_mean"] == pytest.approx(np.hypot(*d.T).mean(), rel=1e-12)
+        assert m["crossings"] == shapely_crossings(path.uv, path.pieces)
