@@ -88,6 +88,8 @@ def test_no_active_limit_gives_todays_schedule(job):
                        max_acceleration_mm_s2=(1e12,) * 3)
     tp, rep = schedule_feeds(job.tool_path, m)
     assert np.array_equal(tp.feed_mm_min, job.tool_path.feed_mm_min)
+    # the smoothing schedule regenerates the interpolator's feeds, not a machine schedule's: dropped
+    assert job.tool_path.schedule is not None and tp.schedule is None
     assert rep["limited_share"] == 0 and rep["dwell_time_error"]["max"] == 0.0 and rep["points_over_1pct"] == 0
     assert rep["machining_time_s"] == rep["planned_time_s"]
     # the delivered time of each dwell point is the schedule's own (its error against the wish is the plan's)

@@ -351,11 +351,11 @@ def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypat
     real = interp.INTEGRATORS["taylor"]
     calls = []
 
-    def spoiled(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap=1024):
+    def spoiled(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap, state, limit):
         calls.append(np.array(rfeed))
         if len(calls) == 3:  # the third schedule pass goes badly wrong
             rfeed = rfeed * 3.0
-        return real(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap)
+        return real(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap, state, limit)
 
     monkeypatch.setitem(interp.INTEGRATORS, "taylor", spoiled)
     res = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
@@ -366,5 +366,6 @@ def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypat
     monkeypatch.setitem(interp.INTEGRATORS, "taylor", real)
     breaks, coeffs, _ = interp._kernel_coeffs(curve)
     u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
-    want = real(breaks, coeffs, u0, u1, interp.dwell_regions(u, u0, u1), calls[best], 100.0, 0.002, 1e-3)
+    want = real(breaks, coeffs, u0, u1, interp.dwell_regions(u, u0, u1), calls[best], 100.0, 0.002, 1e-3, 1024,
+                np.zeros(interp.STATE_SIZE), -1)
     assert np.array_equal(res["params"], want[0]) and np.array_equal(res["samples"], want[1])

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ._version import __version__
-from .errors import ParameterError
+from .errors import ExportError, ParameterError
 
 
 def _frozen_array(a, dtype=None, ndim: int | None = None, cols: int | None = None, name: str = "array"):
@@ -415,6 +415,126 @@ class NurbsCurve:
 
 
 @dataclass(frozen=True)
+class SampleChunk:
+    """A run of consecutive machine samples of one piece.
+
+    Attributes
+    ----------
+    samples : (m, 3) float64
+        Contact points at the constant period, mm (``ToolPath.samples`` rows).
+    sample_params : (m,) float64
+        Curve parameter of each sample (``ToolPath.sample_params``).
+    feed_mm_min : (m,) float64
+        Commanded feed at each sample, mm/min (``ToolPath.feed_mm_min``): the
+        planned time of the move arriving at sample k is ``|s_k - s_(k-1)| / feed_k``.
+    piece : int
+        Index of the continuous piece (tool on the part) the samples belong to.
+    """
+
+    samples: np.ndarray
+    sample_params: np.ndarray
+    feed_mm_min: np.ndarray
+    piece: int
+
+    def __post_init__(self):
+        s = np.asarray(self.samples, dtype=np.float64)
+        u = np.asarray(self.sample_params, dtype=np.float64)
+        f = np.asarray(self.feed_mm_min, dtype=np.float64)
+        if s.ndim != 2 or s.shape[1] != 3 or len(s) == 0:
+            raise ExportError(f"SampleChunk.samples must be (m >= 1, 3) points, got shape {s.shape}.")
+        if u.shape != (len(s),) or f.shape != (len(s),):
+            raise ExportError(f"SampleChunk: sample_params {u.shape} and feed_mm_min {f.shape} must be "
+                              f"({len(s)},) like the samples.")
+        if isinstance(self.piece, bool) or not isinstance(self.piece, (int, np.integer)) or self.piece < 0:
+            raise ExportError(f"SampleChunk.piece must be a piece index >= 0, got {self.piece!r}.")
+        object.__setattr__(self, "samples", s)
+        object.__setattr__(self, "sample_params", u)
+        object.__setattr__(self, "feed_mm_min", f)
+        object.__setattr__(self, "piece", int(self.piece))
+
+    def __len__(self) -> int:
+        return len(self.samples)
+
+
+@dataclass(frozen=True)
+class SampleSchedule:
+    """Everything that determines a ToolPath's machine samples bit for bit, given its curve.
+
+    The interpolator (``polishpath.smooth``) runs each piece's parameter range
+    ``[u0, u1]`` at the constant period, the feed of the dwell region holding
+    the parameter (cut by the chord-error limit and the machine limit);
+    rerunning it with these values gives the same samples, params and feeds.
+
+    Attributes
+    ----------
+    piece_params : (K, 2) float64
+        Parameter range ``(u0, u1)`` run for each piece (``u1`` just below the next piece's start).
+    dwell_pieces : (K + 1,) int64
+        Dwell-point offsets of the pieces: piece k has regions ``dwell_pieces[k]:dwell_pieces[k + 1]``.
+    region_bounds : (N + K,) float64
+        Each piece's dwell-region boundaries (its ``n_k + 1`` values) one piece after the other.
+    region_feeds : (N,) float64
+        Feed of each dwell region after the schedule passes, mm/s.
+    max_feed_mm_s : float
+        Machine feed limit, mm/s (inf: none).
+    period_ms : float
+        Interpolation period, ms.
+    chord_tol_mm : float
+        Chord tolerance, mm.
+    integrator : str
+        Integrator name (``"taylor"`` or ``"ab-am"``).
+    sample_pieces : (K + 1,) int64
+        Sample offsets of the pieces; ``sample_pieces[-1]`` is the sample count.
+    """
+
+    piece_params: np.ndarray
+    dwell_pieces: np.ndarray
+    region_bounds: np.ndarray
+    region_feeds: np.ndarray
+    max_feed_mm_s: float
+    period_ms: float
+    chord_tol_mm: float
+    integrator: str
+    sample_pieces: np.ndarray
+
+    def __post_init__(self):
+        pp = _frozen_array(self.piece_params, np.float64, 2, 2, "piece_params")
+        dp = _frozen_array(self.dwell_pieces, np.int64, 1, None, "dwell_pieces")
+        rb = _frozen_array(self.region_bounds, np.float64, 1, None, "region_bounds")
+        rf = _frozen_array(self.region_feeds, np.float64, 1, None, "region_feeds")
+        sp = _frozen_array(self.sample_pieces, np.int64, 1, None, "sample_pieces")
+        k = len(pp)
+        if (len(dp) != k + 1 or len(sp) != k + 1 or dp[0] != 0 or sp[0] != 0 or np.any(np.diff(dp) < 1)
+                or np.any(np.diff(sp) < 0) or len(rf) != dp[-1] or len(rb) != dp[-1] + k):
+            raise ParameterError(
+                f"SampleSchedule: {k} piece(s) need dwell_pieces and sample_pieces of {k + 1} increasing offsets "
+                f"from 0, region_feeds of dwell_pieces[-1] and region_bounds of dwell_pieces[-1] + {k} values; got "
+                f"{len(dp)}, {len(sp)}, {len(rf)}, {len(rb)}.", "Build the schedule with polishpath.smooth.smooth().")
+        if not (np.all(rf > 0) and self.max_feed_mm_s > 0 and self.period_ms > 0 and self.chord_tol_mm > 0):
+            raise ParameterError("SampleSchedule: feeds, the feed limit, the period and the chord tolerance must "
+                                 "be positive.", "Build the schedule with polishpath.smooth.smooth().")
+        for name, val in (("piece_params", pp), ("dwell_pieces", dp), ("region_bounds", rb),
+                          ("region_feeds", rf), ("sample_pieces", sp)):
+            object.__setattr__(self, name, val)
+        for name in ("max_feed_mm_s", "period_ms", "chord_tol_mm"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+    @property
+    def n_pieces(self) -> int:
+        return len(self.piece_params)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.sample_pieces[-1])
+
+    def piece(self, k: int) -> tuple[float, float, np.ndarray, np.ndarray]:
+        """``(u0, u1, region_bounds (n_k + 1,), region_feeds (n_k,) mm/s)`` of piece ``k``."""
+        a, b = int(self.dwell_pieces[k]), int(self.dwell_pieces[k + 1])
+        return (float(self.piece_params[k, 0]), float(self.piece_params[k, 1]),
+                self.region_bounds[a + k : b + k + 1], self.region_feeds[a:b])
+
+
+@dataclass(frozen=True)
 class ToolPath:
     """The smoothed path, densified for the machine.
 
@@ -440,6 +560,13 @@ class ToolPath:
         short lists only; per-point data lives in the array fields).
     dwell_times : (N,) float64 or None
         Time the schedule spends around each dwell point, s.
+    schedule : SampleSchedule or None
+        What regenerates the samples bit for bit from ``curve`` (set by
+        ``smooth``; ``polishpath.smooth.iter_sample_chunks`` streams them);
+        None where the samples cannot be regenerated (built by hand, or feeds
+        changed afterwards, e.g. by the machine schedule). With
+        ``smooth(..., keep_samples=False)`` the sample arrays are empty and
+        the schedule is the only way to the samples.
     """
 
     curve: NurbsCurve
@@ -452,8 +579,12 @@ class ToolPath:
     provenance: Provenance = field(default_factory=lambda: Provenance("smooth", "unknown"))
     stats: dict[str, Any] = field(default_factory=dict)
     dwell_times: np.ndarray | None = None
+    schedule: SampleSchedule | None = None
 
     def __post_init__(self):
+        if self.schedule is not None and not isinstance(self.schedule, SampleSchedule):
+            raise ParameterError(f"ToolPath.schedule must be a SampleSchedule or None, got "
+                                 f"{type(self.schedule).__name__}.", "Leave it None or pass smooth()'s schedule.")
         if self.dwell_times is not None:
             object.__setattr__(self, "dwell_times", _frozen_array(self.dwell_times, np.float64, 1, None, "dwell_times"))
         object.__setattr__(self, "dwell_params", _frozen_array(self.dwell_params, np.float64, 1, None, "dwell_params"))

@@ -17,60 +17,17 @@ value starts a new piece); every chunk at least one sample.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Iterable, Iterator
 
 import numpy as np
 
 from ..errors import ExportError
-from ..types import ToolPath
+from ..types import SampleChunk, ToolPath  # SampleChunk lives in the core; re-exported here
 
 __all__ = ["SampleChunk", "sample_chunks", "piece_offsets", "dwell_offsets", "normals_at", "DEFAULT_CHUNK_SAMPLES"]
 
 #: samples per chunk when the in-memory writers cut a ToolPath (about 12 MB of arrays)
 DEFAULT_CHUNK_SAMPLES = 1 << 18
-
-
-@dataclass(frozen=True)
-class SampleChunk:
-    """A run of consecutive machine samples of one piece.
-
-    Attributes
-    ----------
-    samples : (m, 3) float64
-        Contact points at the constant period, mm (``ToolPath.samples`` rows).
-    sample_params : (m,) float64
-        Curve parameter of each sample (``ToolPath.sample_params``).
-    feed_mm_min : (m,) float64
-        Commanded feed at each sample, mm/min (``ToolPath.feed_mm_min``): the
-        planned time of the move arriving at sample k is ``|s_k - s_(k-1)| / feed_k``.
-    piece : int
-        Index of the continuous piece (tool on the part) the samples belong to.
-    """
-
-    samples: np.ndarray
-    sample_params: np.ndarray
-    feed_mm_min: np.ndarray
-    piece: int
-
-    def __post_init__(self):
-        s = np.asarray(self.samples, dtype=np.float64)
-        u = np.asarray(self.sample_params, dtype=np.float64)
-        f = np.asarray(self.feed_mm_min, dtype=np.float64)
-        if s.ndim != 2 or s.shape[1] != 3 or len(s) == 0:
-            raise ExportError(f"SampleChunk.samples must be (m >= 1, 3) points, got shape {s.shape}.")
-        if u.shape != (len(s),) or f.shape != (len(s),):
-            raise ExportError(f"SampleChunk: sample_params {u.shape} and feed_mm_min {f.shape} must be "
-                              f"({len(s)},) like the samples.")
-        if isinstance(self.piece, bool) or not isinstance(self.piece, (int, np.integer)) or self.piece < 0:
-            raise ExportError(f"SampleChunk.piece must be a piece index >= 0, got {self.piece!r}.")
-        object.__setattr__(self, "samples", s)
-        object.__setattr__(self, "sample_params", u)
-        object.__setattr__(self, "feed_mm_min", f)
-        object.__setattr__(self, "piece", int(self.piece))
-
-    def __len__(self) -> int:
-        return len(self.samples)
 
 
 def piece_offsets(tool_path: ToolPath) -> np.ndarray:

@@ -269,5 +269,6 @@ def schedule_feeds(tool_path: ToolPath, machine: MachineProfile) -> tuple[ToolPa
     stats = dict(tool_path.stats)
     stats["machine_schedule"] = {k: v for k, v in report.items() if k not in ("machine", "worst_points")}
     stats["machine_schedule"]["machine"] = machine.name
-    out = dataclasses.replace(tool_path, feed_mm_min=new_speed * 60.0, stats=stats)
+    # the smoothing schedule regenerates the interpolator's feeds, not these: a streamed job cannot rerun it
+    out = dataclasses.replace(tool_path, feed_mm_min=new_speed * 60.0, stats=stats, schedule=None)
     return out, report

@@ -29,7 +29,7 @@ from .. import progress
 from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
 from ..errors import ParameterError, SmoothingError
 from ..pathops import step_mask
-from ..types import NurbsCurve, Provenance, SurfacePath, ToolPath
+from ..types import NurbsCurve, Provenance, SampleSchedule, SurfacePath, ToolPath
 from .interpolate import (
     DEFAULT_INTEGRATOR,
     INTEGRATORS,
@@ -39,7 +39,8 @@ from .interpolate import (
     integrator_kernel,
     interpolate_constant_period,
 )
-from .boundary import boundary_excursion
+from .boundary import BoundaryCheck, boundary_excursion
+from .samples import DEFAULT_STREAM_SAMPLES, iter_sample_chunks
 from .nurbs import (
     averaged_knots,
     basis_functions,
@@ -54,6 +55,8 @@ from .nurbs import (
 
 __all__ = [
     "smooth",
+    "iter_sample_chunks",
+    "DEFAULT_STREAM_SAMPLES",
     "interpolate_nurbs",
     "evaluate",
     "interpolate_constant_period",
@@ -239,6 +242,8 @@ def smooth(
     deviation_samples: int = 20000,
     schedule_passes: int = 3,
     integrator: str = DEFAULT_INTEGRATOR,
+    keep_samples: bool = True,
+    chunk_samples: int = DEFAULT_STREAM_SAMPLES,
 ) -> ToolPath:
     """Smooth a surface path with a NURBS through every dwell point and sample it.
 
@@ -275,6 +280,15 @@ def smooth(
         How the parameter advances each period: second-order Taylor predictor
         with an exact chord corrector (default), or the paper's Adams-Bashforth /
         Adams-Moulton (order 4); recorded in the provenance.
+    keep_samples : bool
+        False: hold no machine sample (a 10^7-point path has ~1.5e8): the
+        ToolPath's sample arrays are empty ((0, 3) / (0,)), every figure is
+        accumulated chunk by chunk of ``chunk_samples`` while the kernel runs
+        (the same figures as with True, sums to about 1e-15 relative), and
+        :func:`iter_sample_chunks` regenerates the samples from
+        ``ToolPath.schedule``.
+    chunk_samples : int
+        Samples per chunk without ``keep_samples`` (memory is bounded by it).
 
     Returns
     -------
@@ -289,7 +303,8 @@ def smooth(
         the farthest sample lies beyond the part's rim or over a hole, mm,
         :func:`boundary_excursion`; None without ``surface``) and
         ``boundary_excursion_samples`` (how many lie beyond it at all), ``piece_params`` (K+1,) and
-        ``sample_pieces`` (K+1,) offsets; the times per dwell point are ``ToolPath.dwell_times``.
+        ``sample_pieces`` (K+1,) offsets; the times per dwell point are ``ToolPath.dwell_times``;
+        ``schedule``: the :class:`~polishpath.types.SampleSchedule` that regenerates the samples.
     """
     t0 = time.perf_counter()
     xyz = np.asarray(surface_path.xyz)
@@ -297,6 +312,9 @@ def smooth(
     if n < 1:
         raise SmoothingError("The surface path has no dwell point.", "Plan a path with at least one point.")
     integrator_kernel(integrator)  # a bad name fails before the curve is fitted
+    if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, (int, np.integer)) or chunk_samples < 1:
+        raise ParameterError(f"chunk_samples must be a whole number of samples >= 1, got {chunk_samples!r}.",
+                             "Give e.g. chunk_samples=262144.")
     if max_feed_mm_min is None:
         max_feed_mm_min = 5.0 * feed_mm_min
     pieces = _pieces_of(surface_path)
@@ -333,7 +351,14 @@ def smooth(
                 "Give one time (s) per dwell point, in path order.",
             )
         time_source = "given"
+    check = None
+    if surface is not None:
+        steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
+        steps[pieces[1:-1] - 1] = 0.0  # the lifts between pieces are not on the curve
+        check = BoundaryCheck(surface, reach=float(steps.max()) if len(steps) else 0.0)
     samples, sparams, feeds, spieces, dwell_err = [], [], [], [0], []
+    ranges, bounds, rfeeds = [], [], []
+    exc_max, exc_n = 0.0, 0
     agg: dict = {}
     for k in range(len(curves)):
         sl = slice(pieces[k], pieces[k + 1])
@@ -342,12 +367,21 @@ def smooth(
             dwell_params=dwell_params[sl], dwell_times=times[sl],
             max_feed_mm_min=max_feed_mm_min, u_range=(off[k], np.nextafter(off[k + 1], -np.inf)),
             schedule_passes=schedule_passes, integrator=integrator,
+            keep_samples=keep_samples, chunk_samples=int(chunk_samples),
+            chunk_check=check.tally if check is not None else None,
         )
-        samples.append(res["samples"])
-        sparams.append(res["params"])
-        feeds.append(res["feed_mm_min"])
+        if keep_samples:
+            samples.append(res["samples"])
+            sparams.append(res["params"])
+            feeds.append(res["feed_mm_min"])
+        if check is not None:
+            exc_max = max(exc_max, res["chunk_check"].max_mm)
+            exc_n += res["chunk_check"].count
+        ranges.append(res["u_range"])
+        bounds.append(res["region_bounds"])
+        rfeeds.append(res["region_feed"])
         dwell_err.append(res["dwell_time_error"])
-        spieces.append(spieces[-1] + len(res["params"]))
+        spieces.append(spieces[-1] + res["stats"]["n_samples"])
         if len(curves) > 1:
             progress.update(int(pieces[k + 1]), n, f"dwell points ({spieces[-1]:,} samples)")
         for key, val in res["stats"].items():
@@ -372,16 +406,16 @@ def smooth(
     stats.update(dwell_time_error_p99=float(np.percentile(derr, 99)),
                  dwell_time_error_rms=float(np.sqrt(np.mean(derr**2))))
     stats.update(curve_deviation(curve, dwell_params, xyz, surface_path.normals, pieces, surface, deviation_samples))
-    all_samples = _joined(samples)
-    progress.update(len(all_samples), None, "samples; checking the curve and the boundary")
-    if surface is not None:
-        steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-        steps[pieces[1:-1] - 1] = 0.0  # the lifts between pieces are not on the curve
-        exc = boundary_excursion(all_samples, surface, reach=float(steps.max()) if len(steps) else 0.0)
-        stats.update(boundary_excursion_max_mm=float(exc.max()) if len(exc) else 0.0,
-                     boundary_excursion_samples=int(np.count_nonzero(exc > 0.0)))
+    progress.update(spieces[-1], None, "samples; checking the curve and the boundary")
+    if check is not None:
+        stats.update(boundary_excursion_max_mm=float(exc_max), boundary_excursion_samples=int(exc_n))
     else:
         stats.update(boundary_excursion_max_mm=None, boundary_excursion_samples=None)
+    schedule = SampleSchedule(
+        piece_params=np.asarray(ranges, dtype=np.float64).reshape(-1, 2), dwell_pieces=pieces,
+        region_bounds=np.concatenate(bounds), region_feeds=np.concatenate(rfeeds),
+        max_feed_mm_s=max_feed_mm_min / 60.0, period_ms=float(period_ms), chord_tol_mm=float(chord_tol_mm),
+        integrator=integrator, sample_pieces=np.asarray(spieces, dtype=np.int64))
     stats.update(
         dwell_through_max=through,
         n_dwell_points=int(n),
@@ -401,7 +435,11 @@ def smooth(
          "schedule_passes": int(schedule_passes), "integrator": integrator},
         seed=surface_path.provenance.seed,
     )
+    if keep_samples:
+        all_samples, all_params, all_feeds = _joined(samples), _joined(sparams), _joined(feeds)
+    else:
+        all_samples, all_params, all_feeds = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
     return ToolPath(curve=curve, dwell_params=dwell_params, samples=all_samples,
-                    sample_params=_joined(sparams), feed_mm_min=_joined(feeds),
+                    sample_params=all_params, feed_mm_min=all_feeds,
                     period_ms=float(period_ms), surface_path=surface_path, provenance=prov, stats=stats,
-                    dwell_times=times)
+                    dwell_times=times, schedule=schedule)

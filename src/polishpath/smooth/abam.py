@@ -53,8 +53,8 @@ import math
 import numba
 import numpy as np
 
-from .spans import (DIM, checked_deviation, chord_step, grow, nudge, safe_tolerance, span_bend_bounds, span_derivs,
-                    span_of, span_point, step_feed)
+from .spans import (DIM, checked_deviation, chord_step, grow, nudge, region_at, safe_tolerance, span_at,
+                    span_bend_bounds, span_derivs, span_of, span_point, step_feed)
 
 __all__ = ["abam_kernel", "adams_weights", "GUARD", "CHORD_GUARD"]
 
@@ -105,12 +105,15 @@ def _inv_speed(breaks, coeffs, s, u, u1, w0, c1, w2):  # pragma: no cover - numb
 
 
 @numba.njit(cache=True)
-def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol, cap=1024):  # pragma: no cover
+def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol, cap, state, limit):  # pragma: no cover
     """Constant-period samples of ``[u0, u1]`` by the Adams-Bashforth-Moulton integrator.
 
     Same arguments and returns as :func:`.taylor.taylor_kernel`; ``predictor_max``
     is the largest ``|chord / (V T) - 1|`` of the Adams (or starting) step before
-    any safeguard, ``fallbacks`` the number of safeguard steps.
+    any safeguard, ``fallbacks`` the number of safeguard steps. A multistep
+    method: ``state`` carries its history (the last ``1/|C'|`` values and step
+    lengths) from one call to the next, so resumed calls give the samples of
+    one call bit for bit.
     """
     d = DIM
     bends, size = span_bend_bounds(breaks, coeffs)  # proves most steps under the tolerance unmeasured
@@ -128,28 +131,42 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
     w0 = np.empty(d)
     w1 = np.empty(d)
     w2 = np.empty(d)
-    u = u0
-    s = span_of(breaks, 0, u)
-    r = 0
     nreg = region_feed.shape[0]
-    span_derivs(breaks, coeffs, s, u, pa, c1, c2)
-    out_u[0] = u
-    for j in range(d):
-        out_p[0, j] = pa[j]
-    while r < nreg - 1 and u >= region_b[r + 1]:
-        r += 1
-    out_v[0] = min(region_feed[r], vmax)
-    n = 1
-    guard = 0
-    pred_max = 0.0
-    fallbacks = 0
+    fresh = state[0] == 0.0
+    u = u0 if fresh else state[1]
+    s = span_at(breaks, u)
+    r = region_at(region_b, nreg, u)
     # history, newest first: g at the last four samples, arc length of the last three steps
     G = np.zeros(4)
     H = np.zeros(3)
     nh = 0
+    n = 0
+    if fresh:
+        span_derivs(breaks, coeffs, s, u, pa, c1, c2)
+        out_u[0] = u
+        for j in range(d):
+            out_p[0, j] = pa[j]
+        out_v[0] = min(region_feed[r], vmax)
+        n = 1
+    else:
+        # as the previous call left it: C(u) as its last step computed it, C' and C'' there, the history
+        span_point(breaks, coeffs, s, u, pa)
+        span_derivs(breaks, coeffs, s, u, w0, c1, c2)
+        for k in range(4):
+            G[k] = state[3 + k]
+        for k in range(3):
+            H[k] = state[7 + k]
+        nh = int(state[10])
+    guard = 0
+    pred_max = 0.0
+    fallbacks = 0
     ab_nodes = np.zeros(4)
     am_nodes = np.zeros(4)
+    more = False
     while u < u1:
+        if limit >= 0 and n >= limit:
+            more = True
+            break
         guard += 1
         if guard > 200_000_000:
             break
@@ -270,4 +287,12 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
         pa, pb = pb, pa  # the step's end is the next step's start
         if last:
             break
+    state[0] += n
+    state[1] = u
+    state[2] = 0.0 if more else 1.0
+    for k in range(4):
+        state[3 + k] = G[k]
+    for k in range(3):
+        state[7 + k] = H[k]
+    state[10] = nh
     return out_u[:n], out_p[:n], out_v[:n], pred_max, fallbacks

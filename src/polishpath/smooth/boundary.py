@@ -64,6 +64,65 @@ def _near_boundary(pts: np.ndarray, tree: cKDTree, limit: float, stride: int = 6
     return maybe[d <= limit]
 
 
+class BoundaryCheck:
+    """A part's boundary prepared once, measuring the excursion of points given in any number of chunks.
+
+    :meth:`excursion` is :func:`boundary_excursion` of the points (each point's
+    figure is its own, so chunks give the same figures as all points at once);
+    :meth:`tally` returns a callable that takes chunk after chunk and keeps
+    ``max_mm`` and ``count`` (points beyond the boundary at all).
+    """
+
+    def __init__(self, surface, reach: float):
+        self.v = np.ascontiguousarray(surface.vertices, dtype=np.float64)
+        self.f = np.ascontiguousarray(surface.faces, dtype=np.int64)
+        self.be = boundary_edges(self.f)
+        self.reach = float(reach)
+        if len(self.be):
+            self.a, self.b = self.v[self.be[:, 0]], self.v[self.be[:, 1]]
+            self.half = 0.5 * float(np.linalg.norm(self.b - self.a, axis=1).max())
+            self.tree = cKDTree(0.5 * (self.a + self.b))
+        self.scale = float(np.linalg.norm(self.v.max(axis=0) - self.v.min(axis=0)))
+
+    def excursion(self, points: np.ndarray) -> np.ndarray:
+        """Distance by which each point (M, 3) lies beyond the part's boundary, (M,) mm (0 over the part)."""
+        pts = np.ascontiguousarray(points, dtype=np.float64)
+        out = np.zeros(len(pts))
+        if len(pts) == 0 or len(self.be) == 0:
+            return out
+        cand = _near_boundary(pts, self.tree, self.reach + self.half)
+        if len(cand) == 0:
+            return out
+        dist, closest = _closest_points(pts[cand], self.v, self.f)
+        # is the closest point on a boundary edge? check the edges whose midpoints are near it
+        k = min(16, len(self.be))
+        _, near = self.tree.query(closest, k=k)
+        near = np.asarray(near).reshape(len(cand), k)
+        d_edge = _segment_distance(closest[:, None, :], self.a[near], self.b[near]).min(axis=1)
+        on_boundary = d_edge <= 1e-9 * max(self.scale, 1.0)
+        out[cand] = np.where(on_boundary, dist, 0.0)
+        return out
+
+    def tally(self) -> "BoundaryTally":
+        """A fresh accumulator of the excursion over chunks of points."""
+        return BoundaryTally(self)
+
+
+class BoundaryTally:
+    """Largest excursion (``max_mm``) and how many points lie beyond the boundary (``count``), chunk by chunk."""
+
+    def __init__(self, check: BoundaryCheck):
+        self.check = check
+        self.max_mm = 0.0
+        self.count = 0
+
+    def __call__(self, points: np.ndarray) -> None:
+        exc = self.check.excursion(points)
+        if len(exc):
+            self.max_mm = max(self.max_mm, float(exc.max()))
+            self.count += int(np.count_nonzero(exc > 0.0))
+
+
 def boundary_excursion(points: np.ndarray, surface, reach: float) -> np.ndarray:
     """Distance by which each point lies beyond the part's boundary, (M,) mm (0 over the part).
 
@@ -85,26 +144,4 @@ def boundary_excursion(points: np.ndarray, surface, reach: float) -> np.ndarray:
         Distance to the part where its closest point is on the boundary (within
         1e-9 of the part's size), else 0.
     """
-    pts = np.ascontiguousarray(points, dtype=np.float64)
-    out = np.zeros(len(pts))
-    v = np.ascontiguousarray(surface.vertices, dtype=np.float64)
-    f = np.ascontiguousarray(surface.faces, dtype=np.int64)
-    be = boundary_edges(f)
-    if len(pts) == 0 or len(be) == 0:
-        return out
-    a, b = v[be[:, 0]], v[be[:, 1]]
-    half = 0.5 * float(np.linalg.norm(b - a, axis=1).max())
-    tree = cKDTree(0.5 * (a + b))
-    cand = _near_boundary(pts, tree, reach + half)
-    if len(cand) == 0:
-        return out
-    dist, closest = _closest_points(pts[cand], v, f)
-    # is the closest point on a boundary edge? check the edges whose midpoints are near it
-    k = min(16, len(be))
-    _, near = tree.query(closest, k=k)
-    near = np.asarray(near).reshape(len(cand), k)
-    d_edge = _segment_distance(closest[:, None, :], a[near], b[near]).min(axis=1)
-    scale = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
-    on_boundary = d_edge <= 1e-9 * max(scale, 1.0)
-    out[cand] = np.where(on_boundary, dist, 0.0)
-    return out
+    return BoundaryCheck(surface, reach).excursion(points)

@@ -39,7 +39,8 @@ from ..defaults import DEFAULT_INTEGRATOR
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve
 from .abam import abam_kernel
-from .spans import DIM, chord_errors_kernel
+from .samples import DEFAULT_STREAM_SAMPLES, KernelRun, PieceFigures
+from .spans import DIM, STATE_SIZE, chord_errors_kernel
 from .nurbs import evaluate, span_polynomials
 from .taylor import taylor_kernel
 
@@ -167,6 +168,9 @@ def interpolate_constant_period(
     u_range: tuple[float, float] | None = None,
     schedule_passes: int = 3,
     integrator: str = DEFAULT_INTEGRATOR,
+    keep_samples: bool = True,
+    chunk_samples: int = DEFAULT_STREAM_SAMPLES,
+    chunk_check=None,
 ) -> dict:
     """Samples of the curve at a constant interpolation period.
 
@@ -196,6 +200,16 @@ def interpolate_constant_period(
         wish (within the machine feed limit).
     integrator : {"taylor", "ab-am"}
         How the parameter advances each period (:data:`INTEGRATORS`).
+    keep_samples : bool
+        False: hold no sample; the kernel runs in chunks of ``chunk_samples``
+        and every figure is accumulated chunk by chunk (the same figures;
+        ``samples`` / ``params`` / ``feed_mm_min`` come back empty).
+    chunk_samples : int
+        Samples per chunk without ``keep_samples``.
+    chunk_check : callable, optional
+        A factory of a further check of the samples: ``chunk_check()`` returns a
+        callable that is given each chunk's points (m, 3) in order (one per
+        run; the kept run's comes back as ``result["chunk_check"]``).
 
     Returns
     -------
@@ -214,7 +228,9 @@ def interpolate_constant_period(
         times ``dwell_time_error_max`` (largest relative difference between the
         time spent in a region and the time wanted), ``interpolation_s`` (wall
         time of the kernel runs, every schedule pass included); with dwell times
-        also ``dwell_time_error`` (N,): the signed relative difference per dwell point.
+        also ``dwell_time_error`` (N,): the signed relative difference per dwell point;
+        ``region_bounds`` (R + 1,), ``region_feed`` (R,) mm/s and ``u_range``: the
+        schedule the samples were made with (what regenerates them).
     """
     if not (feed_mm_min > 0 and math.isfinite(feed_mm_min)):
         raise ParameterError(f"feed_mm_min must be a positive number, got {feed_mm_min}.")
@@ -248,23 +264,47 @@ def interpolate_constant_period(
     # room for the expected samples (the time wanted over the period; the curvature limit adds some)
     expect = (float(dt.sum()) if dwell_times is not None else float(arc_lengths(curve, [u0], [u1])[0]) / rfeed[0]) / T
     cap = int(min(max(1.05 * expect, 0.0), 4e9)) + 1024
-    pu, pp, pv, pred_max, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm, cap)
+    chunked = not keep_samples
+    size = int(chunk_samples) if chunked else None
+
+    def run(feed, room):
+        """One interpolation run: (figures, samples or None, kernel run); figures accumulated chunk by
+        chunk when no sample is kept (every run's: the best run's are the result), else after the run."""
+        kr = KernelRun(kernel, breaks, cf, u0, u1, rb, feed, vmax, T, chord_tol_mm, size=size, cap=room)
+        fig = PieceFigures(breaks, cf, rb, feed, vmax, T, on_chunk=chunk_check() if chunk_check else None)
+        if chunked:
+            for chunk in kr:
+                fig.add(*chunk)
+            return fig, None, kr
+        ((pu_, pp_, pv_),) = list(kr)
+        return fig, (pu_, pp_, pv_), kr
+
+    fig, held_samples, kr = run(rfeed, cap)
+    pred_max = kr.pred_max
     passes = 1
-    progress.update(len(pu), None, "samples in schedule pass 1")
+
+    def boundary_times(fig_, smp):
+        if smp is None:
+            return fig_.boundary_times()
+        return np.interp(rb, smp[0], np.arange(len(smp[0])) * T)
+
+    progress.update(fig.n if chunked else len(held_samples[0]), None, "samples in schedule pass 1")
+    best_fig, best_run, best_feed = fig, kr, rfeed
     if dwell_times is not None:
         # Where the curvature limit slows the tool, a region takes longer than wanted; raise
         # that region's feed on its unconstrained part (damped fixed point
         # f <- f * (spent / wanted)^0.7, capped by the machine limit) and run again; keep
         # the run whose worst region is best.
-        def worst(pu_):
-            spent_ = np.diff(np.interp(rb, pu_, np.arange(len(pu_)) * T))
+        def worst(tb):
+            spent_ = np.diff(tb)
             return spent_ / dt, float(np.max(np.abs(spent_ / dt - 1)))
 
         # Only one run's samples are held at a time: the best run's feeds are kept, and the
         # best run is run again at the end when a later one was worse (the kernel is
-        # deterministic: the same samples, bit for bit).
-        rel, err = worst(pu)
-        best_err, best_feed, best_pass, held = err, rfeed, 1, True
+        # deterministic: the same samples, bit for bit). Without samples, the best run's figures are kept.
+        rel, err = worst(boundary_times(fig, held_samples))
+        best_err, best_pass, held = err, 1, True
+        n_last = fig.n if chunked else len(held_samples[0])
         for _ in range(max(0, int(schedule_passes) - 1)):
             if err < 0.01:
                 break
@@ -272,50 +312,45 @@ def interpolate_constant_period(
             if np.allclose(new_feed, rfeed, rtol=1e-3):
                 break
             rfeed = new_feed
-            room = int(1.02 * len(pu)) + 1024
-            del pu, pp, pv
-            pu, pp, pv, pm, n_fb = kernel(breaks, cf, u0, u1, rb, rfeed, vmax, T, chord_tol_mm, room)
-            pred_max = max(pred_max, pm)
+            room = int(1.02 * n_last) + 1024
+            held_samples = None
+            fig, held_samples, kr = run(rfeed, room)
+            pred_max = max(pred_max, kr.pred_max)
             passes += 1
-            progress.update(len(pu), None, f"samples in schedule pass {passes}")
-            rel, err = worst(pu)
+            n_last = fig.n if chunked else len(held_samples[0])
+            progress.update(n_last, None, f"samples in schedule pass {passes}")
+            rel, err = worst(boundary_times(fig, held_samples))
             held = err < best_err
             if held:
-                best_err, best_feed, best_pass = err, rfeed, passes
-        if not held:
-            room = int(1.02 * len(pu)) + 1024
-            del pu, pp, pv
-            pu, pp, pv, _, n_fb = kernel(breaks, cf, u0, u1, rb, best_feed, vmax, T, chord_tol_mm, room)
-            progress.update(len(pu), None, f"samples of schedule pass {best_pass} (the best), run again")
+                best_err, best_feed, best_pass, best_fig, best_run = err, rfeed, passes, fig, kr
+        if not held and not chunked:
+            room = int(1.02 * n_last) + 1024
+            held_samples = None
+            best_fig, held_samples, best_run = run(best_feed, room)
+            progress.update(len(held_samples[0]), None, f"samples of schedule pass {best_pass} (the best), run again")
     t_interp = time.perf_counter() - t_start
-    pp = pp[:, :d]  # a planar curve ran with z = 0
-    steps = np.linalg.norm(np.diff(pp, axis=0), axis=1)
-    cmd = pv[1:] * T
-    fl = (steps[:-1] - cmd[:-1]) / cmd[:-1] if len(steps) > 1 else np.zeros(0)
-    ce = chord_errors_kernel(breaks, cf, pu, _padded(pp), 3) if len(pu) > 1 else np.zeros(0)
-    sched = np.minimum(rfeed[np.clip(np.searchsorted(rb, pu[:-1], side="right") - 1, 0, len(rfeed) - 1)], vmax)
+    if not chunked:
+        pu, pp, pv = held_samples
+        best_fig.add(pu, pp, pv)
+    else:
+        pu, pp, pv = np.zeros(0), np.zeros((0, DIM)), np.zeros(0)
+    n_fb = best_run.fallbacks
+    n_smp = best_fig.n
     stats = {
-        "n_samples": int(len(pu)),
-        "chord_error_max": float(ce.max()) if len(ce) else 0.0,
+        "n_samples": int(n_smp),
         "chord_tol_mm": float(chord_tol_mm),
-        "feed_fluctuation_max": float(np.abs(fl).max()) if len(fl) else 0.0,
-        "feed_fluctuation_rms": float(np.sqrt(np.mean(fl**2))) if len(fl) else 0.0,
         "predictor_fluctuation_max": float(pred_max),
-        "fallback_share": float(n_fb / max(len(pu) - 1, 1)),
+        "fallback_share": float(n_fb / max(n_smp - 1, 1)),
         "integrator": integrator,
-        "feed_limited_share": float(np.mean(pv[1:] < sched * (1 - 1e-9))) if len(pv) > 1 else 0.0,
-        "duration_s": float((len(pu) - 1) * T),
-        "feed_min_mm_min": float(pv.min() * 60.0),
-        "feed_max_mm_min": float(pv.max() * 60.0),
         "schedule_passes": passes,
         "interpolation_s": float(t_interp),
     }
-    stats["curve_length"] = float(rl.sum()) if dwell_times is not None else float(steps.sum())
-    out = {"samples": pp, "params": pu, "feed_mm_min": pv * 60.0, "stats": stats}
+    stats.update(best_fig.stats())
+    stats["curve_length"] = float(rl.sum()) if dwell_times is not None else float(best_fig.length)
+    out = {"samples": pp[:, :d], "params": pu, "feed_mm_min": pv * 60.0, "stats": stats,
+           "region_bounds": rb, "region_feed": best_feed, "u_range": (u0, u1), "chunk_check": best_fig.on_chunk}
     if dwell_times is not None:
-        # time as a piecewise-linear function of the parameter (one period per step)
-        tt = np.arange(len(pu)) * T
-        spent = np.diff(np.interp(rb, pu, tt))
+        spent = np.diff(best_fig.boundary_times())
         rel = (spent - dt) / dt
         stats["dwell_time_error_max"] = float(np.max(np.abs(rel)))
         out["dwell_time_error"] = rel

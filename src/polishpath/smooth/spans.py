@@ -24,7 +24,14 @@ integrator is only its own rule for the next parameter:
 * :func:`nudge` — a tiny step over a point where the curve has no speed;
 * :func:`chord_errors_kernel` — the chord error of every step of a finished run
   (the independent check the stats report);
-* :func:`grow` — the output buffers, doubled when full.
+* :func:`grow` — the output buffers, doubled when full;
+* :func:`span_at` / :func:`region_at` and the kernels' ``state`` (:data:`STATE_SIZE`
+  floats: samples emitted, the last one's parameter, whether the piece is done,
+  the integrator's history) — what makes a kernel resumable: a call that starts
+  where the previous one stopped and emits at most ``limit`` samples gives, call
+  after call, exactly the samples of one call over the whole piece (a step
+  depends only on the parameter it starts from, and for the Adams integrator on
+  the history the state carries).
 
 No function here allocates: every point and derivative goes into a (d,) buffer
 the caller passes (``out``, ``pb``, ``scratch``) and the curves have
@@ -47,13 +54,40 @@ import numpy as np
 
 __all__ = ["DIM", "span_point", "span_derivs", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge",
            "chord_errors_kernel", "grow", "span_bend_bounds", "chord_error_within", "checked_deviation",
-           "safe_tolerance"]
+           "safe_tolerance", "span_at", "region_at", "STATE_SIZE", "new_state"]
 
 
 DIM = 3
 """Coordinates of the curves the kernels run (a compile-time constant, so the loops over
 coordinates unroll; :func:`~polishpath.smooth.interpolate.interpolate_constant_period`
 pads a planar curve with a zero coordinate)."""
+
+
+STATE_SIZE = 11
+"""Floats of a kernel's resumable state: ``[0]`` samples emitted so far in the piece (0: the
+piece has not started), ``[1]`` the parameter of the last sample emitted, ``[2]`` 1 once the
+piece is done, ``[3:7]`` / ``[7:10]`` / ``[10]`` the Adams integrator's history of ``1/|C'|``,
+of step lengths and its length (unused by the Taylor integrator)."""
+
+
+def new_state() -> np.ndarray:
+    """A kernel state at the start of a piece, (:data:`STATE_SIZE`,) float64."""
+    return np.zeros(STATE_SIZE)
+
+
+@numba.njit(cache=True)
+def span_at(breaks, u):  # pragma: no cover - numba
+    """Index of the span holding ``u`` by bisection (the same span :func:`span_of` walks to: the breaks are distinct)."""
+    ns = breaks.shape[0] - 1
+    s = np.searchsorted(breaks, u, side="right") - 1
+    return min(max(s, 0), ns - 1)
+
+
+@numba.njit(cache=True)
+def region_at(region_b, nreg, u):  # pragma: no cover - numba
+    """Index of the dwell region holding ``u``: the region the kernels' forward walk from region 0 reaches."""
+    r = np.searchsorted(region_b, u, side="right") - 1
+    return min(max(r, 0), nreg - 1)
 
 
 @numba.njit(cache=True)

@@ -22,14 +22,14 @@ import math
 import numba
 import numpy as np
 
-from .spans import (DIM, checked_deviation, chord_step, grow, nudge, safe_tolerance, span_bend_bounds, span_derivs,
-                    span_of, span_point, step_feed)
+from .spans import (DIM, checked_deviation, chord_step, grow, nudge, region_at, safe_tolerance, span_at,
+                    span_bend_bounds, span_derivs, span_of, span_point, step_feed)
 
 __all__ = ["taylor_kernel"]
 
 
 @numba.njit(cache=True)
-def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol, cap=1024):  # pragma: no cover
+def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol, cap, state, limit):  # pragma: no cover
     """Constant-period samples of ``[u0, u1]`` by the Taylor predictor and the chord corrector.
 
     Parameters
@@ -54,6 +54,15 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
         Samples the output buffers first hold (doubled when full): the expected
         count, so that a run of 10^8 samples neither grows its buffers many
         times nor keeps up to twice the room it needs.
+    state : (STATE_SIZE,) float
+        Where the piece stands (:data:`.spans.STATE_SIZE`), read and updated in
+        place: all zeros starts the piece at ``u0`` (its first sample is
+        emitted); otherwise the call resumes after the last sample emitted.
+    limit : int
+        Most samples this call emits (-1: run to the end of the piece). Calls
+        that resume with the same state give, one after the other, exactly the
+        samples of one call with ``limit=-1``: a step depends only on the
+        parameter it starts from.
 
     Returns
     -------
@@ -82,21 +91,26 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
     c1 = np.empty(d)
     c2 = np.empty(d)
     pm = np.empty(d)
-    u = u0
-    s = span_of(breaks, 0, u)
-    r = 0
     nreg = region_feed.shape[0]
+    fresh = state[0] == 0.0
+    u = u0 if fresh else state[1]
+    s = span_at(breaks, u)
+    r = region_at(region_b, nreg, u)
     span_point(breaks, coeffs, s, u, pa)
-    out_u[0] = u
-    for j in range(d):
-        out_p[0, j] = pa[j]
-    while r < nreg - 1 and u >= region_b[r + 1]:
-        r += 1
-    out_v[0] = min(region_feed[r], vmax)
-    n = 1
+    n = 0
+    if fresh:
+        out_u[0] = u
+        for j in range(d):
+            out_p[0, j] = pa[j]
+        out_v[0] = min(region_feed[r], vmax)
+        n = 1
     guard = 0
     pred_max = 0.0
+    more = False
     while u < u1:
+        if limit >= 0 and n >= limit:
+            more = True
+            break
         guard += 1
         if guard > 200_000_000:
             break
@@ -148,4 +162,7 @@ def taylor_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s,
         pa, pb = pb, pa  # the step's end is the next step's start
         if last:
             break
+    state[0] += n
+    state[1] = u
+    state[2] = 0.0 if more else 1.0
     return out_u[:n], out_p[:n], out_v[:n], pred_max, 0

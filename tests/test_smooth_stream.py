@@ -1,0 +1,185 @@
+"""The machine samples as a regenerable stream (issue 15 item 4).
+
+The kernels are resumable (calls resumed from the state the previous one left
+give the samples of one call, bit for bit), ``smooth.iter_sample_chunks``
+regenerates a ToolPath's samples from its curve and ``SampleSchedule`` in
+chunks, and ``smooth(..., keep_samples=False)`` holds no sample yet reports the
+same figures as ``keep_samples=True``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import polishpath.smooth.interpolate as interp
+from polishpath.errors import ParameterError, SmoothingError
+from polishpath.mapping import map_to_surface
+from polishpath.smooth import iter_sample_chunks, smooth
+from polishpath.smooth.samples import KernelRun
+from polishpath.smooth.spans import new_state
+from polishpath.types import SampleChunk, SampleSchedule, ToolPath
+from test_mapping_helpers import serpentine_path, spherical_cap
+
+INTEGRATORS = ("taylor", "ab-am")
+
+
+@pytest.fixture(scope="module")
+def mapped():
+    """A mapped serpentine path of several pieces on a spherical cap (the mesh for the boundary check)."""
+    cap = spherical_cap(n_r=10, n_phi=32)
+    path = serpentine_path(cap, 1.5, seed=11)
+    assert len(path.pieces) > 2
+    return cap, map_to_surface(cap, path)
+
+
+@pytest.fixture(scope="module", params=INTEGRATORS)
+def kept(request, mapped):
+    cap, sp = mapped
+    return smooth(sp, surface=cap.surface, feed_mm_min=1200.0, period_ms=4.0, chord_tol_mm=1e-3,
+                  integrator=request.param)
+
+
+def _joined(chunks):
+    chunks = list(chunks)
+    return (np.concatenate([c.samples for c in chunks]), np.concatenate([c.sample_params for c in chunks]),
+            np.concatenate([c.feed_mm_min for c in chunks]), chunks)
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+@pytest.mark.parametrize("size", [1, 2, 7, 101, 10**7])
+def test_resumed_kernel_calls_give_the_samples_of_one_call(integrator, size):
+    """Chunks of 1, 2, a prime, more than the piece: the same params, points and feeds, bit for bit."""
+    rng = np.random.default_rng(5)
+    pts = np.cumsum(rng.normal(scale=0.5, size=(40, 3)), axis=0)
+    curve, u = interp_nurbs(pts)
+    breaks, cf, _ = interp._kernel_coeffs(curve)
+    u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
+    rb = interp.dwell_regions(u, u0, u1)
+    rfeed = rng.uniform(5.0, 40.0, size=len(u))
+    kernel = interp.integrator_kernel(integrator)
+    whole = kernel(breaks, cf, u0, u1, rb, rfeed, 50.0, 0.002, 1e-3, 1024, new_state(), -1)
+    run = KernelRun(kernel, breaks, cf, u0, u1, rb, rfeed, 50.0, 0.002, 1e-3, size=size)
+    parts = list(run)
+    assert all(1 <= len(p[0]) <= size for p in parts)
+    for j in range(3):
+        assert np.array_equal(np.concatenate([p[j] for p in parts]), whole[j])
+    assert run.pred_max == whole[3] and run.fallbacks == whole[4]
+    if integrator == "ab-am":
+        assert whole[4] < len(whole[0]) - 1  # the multistep history is used (and carried), not restarted
+
+
+def interp_nurbs(pts):
+    from polishpath.smooth import interpolate_nurbs
+
+    return interpolate_nurbs(pts)
+
+
+@pytest.mark.parametrize("size", [1, 13, 997, 10**8])
+def test_streamed_chunks_equal_the_kept_samples(kept, size):
+    """iter_sample_chunks: the kept arrays bit for bit, every chunk within one piece and at most `size` long."""
+    if size == 1 and kept.provenance.params["integrator"] == "ab-am":
+        size = 3  # (1 is run with the Taylor integrator; keeps the suite fast)
+    smp, par, feed, chunks = _joined(iter_sample_chunks(kept, size=size))
+    assert np.array_equal(smp, kept.samples) and np.array_equal(par, kept.sample_params)
+    assert np.array_equal(feed, kept.feed_mm_min)
+    assert all(isinstance(c, SampleChunk) and 1 <= len(c) <= size for c in chunks)
+    off = kept.stats["sample_pieces"]
+    assert kept.schedule.n_samples == off[-1] == len(kept.samples)
+    start = 0
+    for c in chunks:  # each chunk lies within its piece's sample range
+        assert off[c.piece] <= start and start + len(c) <= off[c.piece + 1]
+        start += len(c)
+    assert sorted({c.piece for c in chunks}) == list(range(len(off) - 1))
+
+
+def _same_stats(a: dict, b: dict):
+    assert a.keys() == b.keys()
+    for k in a:
+        if k == "seconds" or k.endswith("interpolation_s"):
+            continue
+        va, vb = a[k], b[k]
+        if isinstance(va, float) and isinstance(vb, float):
+            assert va == pytest.approx(vb, rel=1e-12, abs=1e-300), k
+        else:
+            assert va == vb, k
+
+
+@pytest.mark.parametrize("size", [5, 4096])
+def test_keep_samples_false_holds_no_sample_and_reports_the_same_figures(mapped, kept, size):
+    cap, sp = mapped
+    lean = smooth(sp, surface=cap.surface, feed_mm_min=1200.0, period_ms=4.0, chord_tol_mm=1e-3,
+                  integrator=kept.provenance.params["integrator"], keep_samples=False, chunk_samples=size)
+    assert lean.samples.shape == (0, 3) and lean.sample_params.shape == (0,) and lean.feed_mm_min.shape == (0,)
+    _same_stats(lean.stats, kept.stats)
+    assert lean.stats["boundary_excursion_samples"] > 0  # the check saw samples beyond the rim, chunk by chunk
+    assert lean.stats["schedule_passes"] > 1  # the passes themselves ran chunk by chunk
+    assert np.array_equal(lean.dwell_times, kept.dwell_times)
+    for f in dataclasses.fields(SampleSchedule):
+        assert np.array_equal(getattr(lean.schedule, f.name), getattr(kept.schedule, f.name)), f.name
+    smp, par, feed, _ = _joined(iter_sample_chunks(lean, size=size * 3 + 1))
+    assert np.array_equal(smp, kept.samples) and np.array_equal(par, kept.sample_params)
+    assert np.array_equal(feed, kept.feed_mm_min)
+
+
+def test_keep_samples_false_runs_the_kernel_in_bounded_chunks(mapped, monkeypatch):
+    """Memory bounded by the chunk size: no kernel call returns more than chunk_samples samples."""
+    cap, sp = mapped
+    real = interp.INTEGRATORS["taylor"]
+    longest = []
+
+    def recording(*args):
+        out = real(*args)
+        longest.append(len(out[0]))
+        return out
+
+    monkeypatch.setitem(interp.INTEGRATORS, "taylor", recording)
+    tp = smooth(sp, feed_mm_min=1200.0, period_ms=4.0, keep_samples=False, chunk_samples=64)
+    assert max(longest) <= 64 and tp.stats["n_samples"] > 64 * 10
+
+
+def test_the_schedule_is_what_the_samples_were_made_with(kept):
+    sch = kept.schedule
+    n, k = len(kept.dwell_params), len(kept.stats["piece_params"]) - 1
+    assert sch.n_pieces == k and len(sch.region_feeds) == n and len(sch.region_bounds) == n + k
+    assert sch.integrator == kept.provenance.params["integrator"] and sch.period_ms == kept.period_ms
+    assert sch.max_feed_mm_s == pytest.approx(kept.provenance.params["max_feed_mm_min"] / 60.0)
+    for j in range(k):
+        u0, u1, rb, rf = sch.piece(j)
+        a = kept.stats["sample_pieces"][j]
+        assert kept.sample_params[a] == u0 and rb[0] == u0 and rb[-1] == u1 and np.all(np.diff(rb) >= 0)
+        assert np.all(rf > 0) and np.all(rf <= sch.max_feed_mm_s)
+
+
+def test_streaming_needs_a_schedule_and_a_good_chunk_size(kept):
+    bare = dataclasses.replace(kept, schedule=None)
+    with pytest.raises(SmoothingError, match="no sample schedule"):
+        next(iter_sample_chunks(bare))
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ParameterError):
+            next(iter_sample_chunks(kept, size=bad))
+    with pytest.raises(ParameterError):
+        smooth(kept.surface_path, keep_samples=False, chunk_samples=0)
+    with pytest.raises(ParameterError, match="SampleSchedule"):
+        ToolPath(kept.curve, kept.dwell_params, kept.samples, kept.sample_params, kept.feed_mm_min, kept.period_ms,
+                 kept.surface_path, schedule={"piece_params": []})
+
+
+def test_sample_schedule_refuses_inconsistent_arrays(kept):
+    sch = kept.schedule
+    with pytest.raises(ParameterError, match="increasing offsets"):
+        dataclasses.replace(sch, region_feeds=sch.region_feeds[:-1])
+    with pytest.raises(ParameterError, match="increasing offsets"):
+        dataclasses.replace(sch, sample_pieces=sch.sample_pieces[:-1])
+    with pytest.raises(ParameterError, match="positive"):
+        dataclasses.replace(sch, period_ms=0.0)
+    assert sch.region_feeds.flags.writeable is False
+
+
+def test_sample_chunk_moved_to_the_core_and_still_exported():
+    from polishpath.export import SampleChunk as ExportedChunk
+    from polishpath.export.chunks import SampleChunk as ChunksChunk
+
+    assert ExportedChunk is SampleChunk and ChunksChunk is SampleChunk
