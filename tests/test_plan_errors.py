@@ -56,6 +56,12 @@ CASES = [
                                               np.ones(2), types.PlanarPath(np.zeros((2, 2)), np.zeros((2, 2)), 1.0))),
     ("NurbsCurve", lambda: types.NurbsCurve(3, np.zeros((2, 2)), np.zeros((4, 3)))),
     ("ToolPath", lambda: types.ToolPath(None, np.zeros((2, 2)), np.zeros((2, 3)), np.zeros(2), np.zeros(2), 1.0, None)),
+    ("SampleChunk", lambda: types.SampleChunk(np.zeros((0, 3)), np.zeros(0), np.zeros(0), 0)),
+    ("SampleChunk", lambda: types.SampleChunk(np.zeros((2, 3)), np.zeros(2), np.zeros(2), -1)),
+    ("SampleSchedule", lambda: types.SampleSchedule(np.zeros((1, 2)), [0, 2], np.zeros(3), np.ones(1), 1.0, 4.0,
+                                                    1e-3, "taylor", [0, 10])),
+    ("SampleSchedule", lambda: types.SampleSchedule(np.zeros((1, 2)), [0, 1], np.zeros(2), np.ones(1), 0.0, 4.0,
+                                                    1e-3, "taylor", [0, 10])),
     # meshops
     ("face_areas", lambda: meshops.face_areas(np.zeros((3, 3)), [[0, 1, 2]], signed=True)),
     # plan: the dwell grid

@@ -440,13 +440,15 @@ class SampleChunk:
         s = np.asarray(self.samples, dtype=np.float64)
         u = np.asarray(self.sample_params, dtype=np.float64)
         f = np.asarray(self.feed_mm_min, dtype=np.float64)
+        hint = "Give consecutive samples of one piece: points (m, 3) mm, their params (m,) and feeds (m,) mm/min."
         if s.ndim != 2 or s.shape[1] != 3 or len(s) == 0:
-            raise ExportError(f"SampleChunk.samples must be (m >= 1, 3) points, got shape {s.shape}.")
+            raise ExportError(f"SampleChunk.samples must be (m >= 1, 3) points, got shape {s.shape}.", hint)
         if u.shape != (len(s),) or f.shape != (len(s),):
             raise ExportError(f"SampleChunk: sample_params {u.shape} and feed_mm_min {f.shape} must be "
-                              f"({len(s)},) like the samples.")
+                              f"({len(s)},) like the samples.", hint)
         if isinstance(self.piece, bool) or not isinstance(self.piece, (int, np.integer)) or self.piece < 0:
-            raise ExportError(f"SampleChunk.piece must be a piece index >= 0, got {self.piece!r}.")
+            raise ExportError(f"SampleChunk.piece must be a piece index >= 0, got {self.piece!r}.",
+                              "Number the pieces 0, 1, ... in path order.")
         object.__setattr__(self, "samples", s)
         object.__setattr__(self, "sample_params", u)
         object.__setattr__(self, "feed_mm_min", f)
