@@ -2,9 +2,11 @@
 
 Both give the moves as a controller runs them: the end point of every move
 (axis words are modal: a word left out keeps its value), whether it was a feed
-(G01) or a rapid (G00) move, the F in force and whether G93 (inverse time) was
-in force. ``Moves.times()`` is each feed move's time as the controller derives
-it: ``60 x length / F`` in G94, ``60 / F`` in G93.
+(G01, or a G02 / G03 arc in the XY plane with its centre from I J, incremental)
+or a rapid (G00) move, the F in force and whether G93 (inverse time) was in
+force. ``Moves.times()`` is each feed move's time as the controller derives it:
+``60 x length / F`` in G94 (an arc's length: the helix's, :func:`helix_lengths`),
+``60 / F`` in G93.
 """
 
 from __future__ import annotations
@@ -14,6 +16,44 @@ from dataclasses import dataclass
 import numpy as np
 
 
+def helix_lengths(starts, ends, centres, turns) -> np.ndarray:
+    """(K,) length of each move, mm: straight where ``turns`` is 0, else the helical arc in the XY plane about
+    ``centres`` (K, 2) from ``starts`` to ``ends`` (K, 3), counter-clockwise for turns > 0 (G03), clockwise
+    for turns < 0 (G02), ``|turns| - 1`` extra full turns; the radius linear from start to end (LinuxCNC's
+    spiral; the mean is used), Z linear along the arc: ``sqrt((r_mean * sweep)^2 + dz^2)``."""
+    starts, ends = np.asarray(starts, float), np.asarray(ends, float)
+    turns = np.asarray(turns)
+    out = np.linalg.norm(ends - starts, axis=1)
+    arc = turns != 0
+    if arc.any():
+        c = np.asarray(centres, float)[arc]
+        a, b, t = starts[arc], ends[arc], turns[arc]
+        sgn = np.sign(t)
+        va, vb = a[:, :2] - c, b[:, :2] - c
+        ph = np.arctan2(sgn * (va[:, 0] * vb[:, 1] - va[:, 1] * vb[:, 0]), np.einsum("ij,ij->i", va, vb))
+        ph = np.where(ph <= 0, ph + 2 * np.pi, ph) + (np.abs(t) - 1) * 2 * np.pi
+        r = 0.5 * (np.linalg.norm(va, axis=1) + np.linalg.norm(vb, axis=1))
+        out[arc] = np.hypot(r * ph, b[:, 2] - a[:, 2])
+    return out
+
+
+def arc_points(start, end, centre, turn, lam) -> np.ndarray:
+    """Points (m, 3) at fractions ``lam`` (m,) of one move's length (straight, or a helical arc as in
+    :func:`helix_lengths`): where the controller, moving uniformly, is at those fractions of its time."""
+    start, end, lam = np.asarray(start, float), np.asarray(end, float), np.asarray(lam, float)
+    if turn == 0:
+        return start + lam[:, None] * (end - start)
+    sgn = np.sign(turn)
+    va, vb = start[:2] - centre, end[:2] - centre
+    ph = np.arctan2(sgn * (va[0] * vb[1] - va[1] * vb[0]), va @ vb)
+    ph = (ph + 2 * np.pi if ph <= 0 else ph) + (abs(turn) - 1) * 2 * np.pi
+    th = np.arctan2(va[1], va[0]) + sgn * lam * ph
+    ra, rb = np.linalg.norm(va), np.linalg.norm(vb)
+    r = ra + lam * (rb - ra)
+    return np.column_stack([centre[0] + r * np.cos(th), centre[1] + r * np.sin(th),
+                            start[2] + lam * (end[2] - start[2])])
+
+
 @dataclass
 class Moves:
     ends: np.ndarray  # (K, 3) mm
@@ -21,11 +61,21 @@ class Moves:
     feed: np.ndarray  # (K,) F in force (mm/min, or 1/min in G93)
     inverse: np.ndarray  # (K,) bool
     rapid: np.ndarray  # (K,) bool
+    centres: np.ndarray = None  # (K, 2) an arc's centre (NaN: a straight move)
+    turns: np.ndarray = None  # (K,) +1 G03, -1 G02, 0 straight
+
+    def __post_init__(self):
+        if self.centres is None:
+            self.centres = np.full((len(self.ends), 2), np.nan)
+        if self.turns is None:
+            self.turns = np.zeros(len(self.ends), np.int64)
+
+    def lengths(self) -> np.ndarray:
+        return helix_lengths(self.starts, self.ends, self.centres, self.turns)
 
     def times(self) -> np.ndarray:
-        length = np.linalg.norm(self.ends - self.starts, axis=1)
         with np.errstate(divide="ignore"):
-            return np.where(self.inverse, 60.0 / self.feed, 60.0 * length / self.feed)
+            return np.where(self.inverse, 60.0 / self.feed, 60.0 * self.lengths() / self.feed)
 
     def runs(self) -> list[np.ndarray]:
         """Indices of each run of feed moves between rapid moves (one piece: approach, path, retract)."""
@@ -41,12 +91,12 @@ def _body(text: str) -> list[str]:
 
 
 def _moves(rows) -> Moves:
-    ends, starts, feeds, invs, rapids = [], [], [], [], []
+    ends, starts, feeds, invs, rapids, centres, turns = [], [], [], [], [], [], []
     pos = np.zeros(3)
     motion, feed, inv = None, 0.0, False
     for gs, words in rows:
         for g in gs:
-            if g in (0, 1):
+            if g in (0, 1, 2, 3):
                 motion = g
             elif g == 93:
                 inv = True
@@ -61,8 +111,12 @@ def _moves(rows) -> Moves:
             feeds.append(feed)
             invs.append(inv)
             rapids.append(motion == 0)
+            arc = motion in (2, 3)
+            centres.append(pos[:2] + [float(words.get("I", 0.0)), float(words.get("J", 0.0))] if arc else [np.nan] * 2)
+            turns.append({2: -1, 3: 1}.get(motion, 0))
             pos = new
-    return Moves(np.array(ends), np.array(starts), np.array(feeds), np.array(invs, bool), np.array(rapids, bool))
+    return Moves(np.array(ends), np.array(starts), np.array(feeds), np.array(invs, bool), np.array(rapids, bool),
+                 np.array(centres, float).reshape(-1, 2), np.array(turns, np.int64))
 
 
 def moves_gcodeparser(text: str) -> Moves:
@@ -77,9 +131,9 @@ def moves_gcodeparser(text: str) -> Moves:
             gs = [c.command[1] for c in parsed if c.command[0] == "G"]
             words = {}
             for c in parsed:
-                words.update({k: v for k, v in c.params.items() if k in "XYZF"})
+                words.update({k: v for k, v in c.params.items() if k in "XYZFIJ"})
         else:
-            gs, words = [], {k: v for k, v in parse_parameters(ln).items() if k in "XYZF"}
+            gs, words = [], {k: v for k, v in parse_parameters(ln).items() if k in "XYZFIJ"}
         rows.append((gs, words))
     return _moves(rows)
 
@@ -89,43 +143,61 @@ def moves_pygcode(text: str) -> Moves:
     from pygcode import Line, Machine
 
     m = Machine()
-    ends, starts, feeds, invs, rapids = [], [], [], [], []
+    ends, starts, feeds, invs, rapids, centres, turns = [], [], [], [], [], [], []
     for ln in _body(text):
         line = Line(ln)
         before = np.array([m.pos.values[a] for a in "XYZ"])
         m.process_block(line.block)
         after = np.array([m.pos.values[a] for a in "XYZ"])
-        if any(w.letter in "XYZ" for w in list(line.block.words)):
+        words = {w.letter: float(w.value) for w in line.block.words}
+        if any(a in words for a in "XYZ"):
             starts.append(before)
             ends.append(after)
             feeds.append(float(m.mode.feed_rate.word.value) if m.mode.feed_rate is not None else 0.0)
             invs.append(str(m.mode.feed_rate_mode) == "G93")
-            rapids.append(str(m.mode.motion).startswith("G00"))
-    return Moves(np.array(ends), np.array(starts), np.array(feeds), np.array(invs, bool), np.array(rapids, bool))
+            motion = str(m.mode.motion)
+            rapids.append(motion.startswith("G00"))
+            turn = -1 if motion.startswith("G02") else (1 if motion.startswith("G03") else 0)
+            turns.append(turn)
+            centres.append(before[:2] + [words.get("I", 0.0), words.get("J", 0.0)] if turn else [np.nan] * 2)
+    return Moves(np.array(ends), np.array(starts), np.array(feeds), np.array(invs, bool), np.array(rapids, bool),
+                 np.array(centres, float).reshape(-1, 2), np.array(turns, np.int64))
 
 
-def _seg_proj(q, a, b):
-    """Distances of points q (m, 3) from segments a-b (k, 3) each, and the projections' fractions: (m, k)."""
-    e = b - a
-    ll = np.einsum("ij,ij->i", e, e)
-    t = np.einsum("mkj,kj->mk", q[:, None, :] - a[None, :, :], e) / np.where(ll > 0, ll, 1.0)
-    t = np.clip(t, 0.0, 1.0)
-    d = np.linalg.norm(a[None] + t[..., None] * e[None] - q[:, None, :], axis=2)
-    return d, t
+def _move_fraction(q, start, end, centre, turn):
+    """Distance of point q (3,) from one move and the fraction of the move's length at its nearest point
+    (a straight move: the projection; an arc: 2001 points along it, then 2001 more around the nearest)."""
+    if turn == 0:
+        e = end - start
+        ll = float(e @ e)
+        t = min(max(float((q - start) @ e) / ll, 0.0), 1.0) if ll > 0 else 0.0
+        return float(np.linalg.norm(start + t * e - q)), t
+    lam = np.linspace(0.0, 1.0, 2001)
+    for _ in range(2):
+        d = np.linalg.norm(arc_points(start, end, centre, turn, lam) - q, axis=1)
+        i = int(np.argmin(d))
+        best = float(d[i]), float(lam[i])
+        lam = np.clip(np.linspace(lam[i] - 5e-4, lam[i] + 5e-4, 2001), 0.0, 1.0)
+    return best
 
 
 def delivered_region_times(points: np.ndarray, times: np.ndarray, dwell_points: np.ndarray,
-                           boundary_points: np.ndarray, match: float = 2e-4) -> np.ndarray:
+                           boundary_points: np.ndarray, match: float = 2e-4, centres: np.ndarray | None = None,
+                           turns: np.ndarray | None = None) -> np.ndarray:
     """Time the controller spends in each dwell point's region of one piece, s.
 
     ``points`` (k + 1, 3): the piece's path as run (approach end, then every block's
     end); ``times`` (k,): each block's time as the controller derives it;
+    ``centres`` (k, 2) and ``turns`` (k,): the blocks' arcs (see :func:`helix_lengths`; None: straight);
     ``dwell_points`` (q, 3) in order, each a block end (found within ``match`` mm);
     ``boundary_points`` (q - 1, 3): the curve at the region boundaries (the parameter
     midpoints between dwell points). Each boundary is projected onto the nearest
     block between its two dwell points; the controller passes it at that block's
-    start time plus the projection's fraction of the block's time.
+    start time plus the projection's fraction (of the block's length) of the block's time.
     """
+    k = len(times)
+    centres = np.full((k, 2), np.nan) if centres is None else np.asarray(centres, float)
+    turns = np.zeros(k, np.int64) if turns is None else np.asarray(turns)
     cum = np.concatenate([[0.0], np.cumsum(times)])
     idx, start = [], 0
     for d in dwell_points:
@@ -137,9 +209,9 @@ def delivered_region_times(points: np.ndarray, times: np.ndarray, dwell_points: 
     tb = []
     for j, q in enumerate(boundary_points):
         a, b = idx[j], idx[j + 1]
-        d, t = _seg_proj(q[None, :], points[a:b], points[a + 1 : b + 1])
-        i = int(np.argmin(d[0]))
-        tb.append(cum[a + i] + t[0, i] * (cum[a + i + 1] - cum[a + i]))
+        best = min((_move_fraction(q, points[i], points[i + 1], centres[i], turns[i]) + (i,) for i in range(a, b)))
+        _, lam, i = best
+        tb.append(cum[i] + lam * (cum[i + 1] - cum[i]))
     edges = np.concatenate([[0.0], tb, [cum[-1]]])
     return np.diff(edges)
 

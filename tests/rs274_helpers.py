@@ -8,9 +8,12 @@ on PATH) and skips the test with the reason where it cannot be had.
 rs274 prints one canonical machining call per line, e.g.::
 
        25 N..... STRAIGHT_FEED(1.0000, 2.0000, 0.0000, 0.0000, 0.0000, 0.0000)
+       26 N..... ARC_FEED(2.0000, 1.0000, 1.0000, 1.0000, 1, 0.5000, 0.0000, 0.0000, 0.0000)
 
-with every number at 4 decimals; errors go to stderr and end the run (exit 1)
-in batch mode (``-g``).
+(an arc in the XY plane: end X, end Y, centre X, centre Y, turns -- positive
+counter-clockwise, negative clockwise --, end Z, then the rotary axes) with
+every number at 4 decimals; errors go to stderr and end the run (exit 1) in
+batch mode (``-g``).
 """
 
 from __future__ import annotations
@@ -24,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from gcode_helpers import helix_lengths
 
 REPO = Path(__file__).resolve().parents[1]
 CACHE = Path(os.environ.get("POLISHPATH_CACHE", Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "polishpath"))
@@ -41,10 +46,12 @@ class Canon:
     """rs274's reading of one file.
 
     ``calls``: every canonical call, (name, raw argument text), in order.
-    ``feeds``: (K, 3) end points of STRAIGHT_FEED moves, mm; ``feed_rate``: (K,)
-    the F in force for each (mm/min, or 1/min in inverse time); ``inverse_time``:
-    (K,) bool, G93 in force; ``starts``: (K, 3) where each feed move began;
-    ``group``: (K,) index of the run of feed moves between rapid moves.
+    ``feeds``: (K, 3) end points of the feed moves (STRAIGHT_FEED and ARC_FEED), mm;
+    ``feed_rate``: (K,) the F in force for each (mm/min, or 1/min in inverse time);
+    ``inverse_time``: (K,) bool, G93 in force; ``starts``: (K, 3) where each feed
+    move began; ``centres`` (K, 2) an arc's centre (NaN: straight), ``turns`` (K,)
+    its turn count (0: straight); ``group``: (K,) index of the run of feed moves
+    between rapid moves.
     """
 
     returncode: int
@@ -55,6 +62,8 @@ class Canon:
     feed_rate: np.ndarray = field(default_factory=lambda: np.zeros(0))
     inverse_time: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     group: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    centres: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    turns: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def ok(self) -> bool:
@@ -76,12 +85,12 @@ class Canon:
         return out
 
     def segment_times(self) -> np.ndarray:
-        """(K,) seconds per STRAIGHT_FEED: 60 x length / rate.
+        """(K,) seconds per feed move: 60 x length / rate (an arc's length: its helix's).
 
         In inverse time (G93) rs274 itself turns each block's F (1/min) into the
         equivalent rate, length x F in mm/min, so one formula serves both modes.
         """
-        length = np.linalg.norm(self.feeds - self.starts, axis=1)
+        length = helix_lengths(self.starts, self.feeds, self.centres, self.turns)
         with np.errstate(divide="ignore"):
             return 60.0 * length / self.feed_rate
 
@@ -94,16 +103,20 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
             calls.append((m.group(1), m.group(2)))
     pos = np.zeros(3)
     rate, inv = 0.0, False
-    ends, starts, rates, invs, groups = [], [], [], [], []
+    ends, starts, rates, invs, groups, centres, turns = [], [], [], [], [], [], []
     g, last = -1, "STRAIGHT_TRAVERSE"
     for name, a in calls:
         if name == "COMMENT" and "feed mode set to" in a:
             inv = "inverse time" in a
         elif name == "SET_FEED_RATE":
             rate = float(a)
-        elif name in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE"):
-            p = np.array([float(v) for v in a.split(",")[:3]])
-            if name == "STRAIGHT_FEED":
+        elif name in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE", "ARC_FEED"):
+            v = [float(x) for x in a.split(",")]
+            arc = name == "ARC_FEED"
+            p = np.array([v[0], v[1], v[5]] if arc else v[:3])
+            if name != "STRAIGHT_TRAVERSE":
+                centres.append(v[2:4] if arc else [np.nan, np.nan])
+                turns.append(int(v[4]) if arc else 0)
                 if last == "STRAIGHT_TRAVERSE":
                     g += 1
                 groups.append(g)
@@ -118,6 +131,7 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
         c.feeds, c.starts = np.array(ends), np.array(starts)
         c.feed_rate, c.inverse_time = np.array(rates), np.array(invs, bool)
         c.group = np.array(groups, np.int64)
+        c.centres, c.turns = np.array(centres, float), np.array(turns, np.int64)
     return c
 
 

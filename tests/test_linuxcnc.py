@@ -54,16 +54,19 @@ def test_canonical_parser_reads_moves_feeds_and_modes():
     assert not bad.ok and bad.errors[0] == "Unknown g code used"
 
 
-def _path_moves(canon):
+def _path_moves(canon, arcs: bool = False):
     """Per run of feed moves (one piece): the path points (approach end = first sample ... last sample)
-    and the times of the moves between them; the approach and retract moves themselves left out."""
-    pts, times = [], []
+    and the times of the moves between them; the approach and retract moves themselves left out.
+    ``arcs``: also the moves' arc centres and turns (NaN and 0 for straight moves)."""
+    pts, times, centres, turns = [], [], [], []
     t = canon.segment_times()
     for g in np.unique(canon.group):
         idx = np.flatnonzero(canon.group == g)
         pts.append(canon.feeds[idx[:-1]])  # the last move of a run is the retract
         times.append(t[idx[1:-1]])
-    return pts, times
+        centres.append(canon.centres[idx[1:-1]])
+        turns.append(canon.turns[idx[1:-1]])
+    return (pts, times, centres, turns) if arcs else (pts, times)
 
 
 def test_rs274_reads_the_linear_gcode_of_a_small_job(rs274, small_job):
@@ -79,6 +82,9 @@ def test_rs274_reads_the_linear_gcode_of_a_small_job(rs274, small_job):
     ends = np.vstack(pts)
     # chord-tolerance blocks: far fewer than the samples, every dwell point one of their end points, in order
     assert len(dwell) < len(ends) < 0.9 * len(samples) and post["motion_blocks"] == len(ends) - len(pts)
+    # helical arcs among them (G02/G03: rs274's ARC_FEED), as the summary counts them
+    assert 0 < post["arc_blocks"] == int(np.count_nonzero(canon.turns)) and post["arcs"]
+    assert "ARC_FEED" in canon.names()
     hits = [int(np.argmin(np.linalg.norm(ends - d, axis=1))) for d in dwell]
     assert max(np.linalg.norm(ends[h] - d) for h, d in zip(hits, dwell)) <= RES * np.sqrt(3)
     assert np.all(np.diff(hits) > 0)
@@ -132,9 +138,11 @@ def test_rs274_runs_every_move_with_its_planned_time_at_the_fixed_period(rs274, 
     assert canon.segment_times().sum() == pytest.approx(info["machining_time_s"], rel=1e-4)
 
 
-@pytest.mark.parametrize("radius, machine", [(0.0, None), (5.0, None), (0.0, "gentle")])
-def test_rs274_spends_the_scheduled_time_around_every_dwell_point(rs274, job, radius, machine, tmp_path):
-    """The chord-tolerance blocks as LinuxCNC reads them: each dwell point's region within 1 % of its schedule."""
+@pytest.mark.parametrize("radius, machine, arcs", [(0.0, None, True), (5.0, None, True), (0.0, "gentle", True),
+                                                  (0.0, None, False)])
+def test_rs274_spends_the_scheduled_time_around_every_dwell_point(rs274, job, radius, machine, arcs, tmp_path):
+    """The chord-tolerance blocks (lines and helical arcs) as LinuxCNC reads them: each dwell point's region
+    within 1 % of its schedule, every arc's time its helix's length at the F in force."""
     from gcode_helpers import delivered_region_times, points_at_params
     from polishpath.smooth import dwell_regions
 
@@ -145,11 +153,13 @@ def test_rs274_spends_the_scheduled_time_around_every_dwell_point(rs274, job, ra
 
         tp = schedule_feeds(tp, load_machine(REPO / "examples" / f"machine-{machine}.toml"))[0]
     f = tmp_path / "toolpath.nc"
-    info = write_gcode(tp, f, tool_radius=radius)
+    info = write_gcode(tp, f, tool_radius=radius, arcs=arcs)
     assert info["segmenting"] == "chord" and info["motion_blocks"] < 0.9 * len(tp.samples)
     canon = rs274(f)
     assert canon.ok, canon.errors[:5]
-    pts, times = _path_moves(canon)
+    assert (info["arc_blocks"] > 0.1 * info["motion_blocks"]) == arcs
+    assert info["arc_blocks"] == int(np.count_nonzero(canon.turns))
+    pts, times, centres, turns = _path_moves(canon, arcs=True)
     sp = tp.surface_path
     off, doff = tp.stats["sample_pieces"], sp.planar.pieces
     dt = planned_segment_times(tp)
@@ -162,9 +172,12 @@ def test_rs274_spends_the_scheduled_time_around_every_dwell_point(rs274, job, ra
         rb = dwell_regions(tp.dwell_params[da:db], u[0], u[-1])
         sched = np.diff(np.interp(rb, u, t))
         bq = points_at_params(driven[a:b], u, rb[1:-1])  # where the schedule places each region boundary
-        got = delivered_region_times(pts[k], times[k], sp.xyz[da:db] + radius * sp.normals[da:db], bq)
+        got = delivered_region_times(pts[k], times[k], sp.xyz[da:db] + radius * sp.normals[da:db], bq,
+                                     centres=centres[k], turns=turns[k])
         worst = max(worst, float(np.abs(got / sched - 1).max()))
     assert worst <= 0.01 + 2e-4  # time_tol; rs274 prints F to 4 decimals
+    # and the whole program's time as rs274 derives it is the post's machining time
+    assert canon.segment_times().sum() == pytest.approx(info["machining_time_s"], rel=1e-4)
 
 
 def test_rs274_sees_blending_spindle_slurry_approach_and_retract_in_order(rs274, job, tmp_path):

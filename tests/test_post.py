@@ -20,7 +20,7 @@ from polishpath.export.post import PostSettings, planned_segment_times, post_hel
 from polishpath.mapping import map_to_surface
 from polishpath.smooth import dwell_regions, evaluate, sample_normals, smooth
 from polishpath.types import NurbsCurve
-from gcode_helpers import moves_gcodeparser, moves_pygcode
+from gcode_helpers import arc_points, moves_gcodeparser, moves_pygcode
 from test_mapping_helpers import serpentine_path, spherical_cap
 
 RES = 0.5e-4 + 1e-12  # half the 4-decimal coordinate resolution, mm
@@ -57,6 +57,13 @@ def _path_runs(text: str):
     for run in m.runs():
         out.append((m.ends[run[:-1]], m.feed[run[1:-1]], m.inverse[run[1:-1]], t[run[1:-1]]))
     return out
+
+
+def _path_arcs(text: str):
+    """Per piece, by gcodeparser: the path blocks' arc centres (NaN: straight) and turns (0 straight, +1 G03,
+    -1 G02), as :func:`_path_runs` orders them."""
+    m = moves_gcodeparser(text)
+    return [(m.centres[run[1:-1]], m.turns[run[1:-1]]) for run in m.runs()]
 
 
 def _pieces_of(tool_path):
@@ -109,7 +116,8 @@ def test_linuxcnc_program_in_order(tool_path):
     assert text.startswith("%\n") and text.endswith("M5 M9\nM30\n%\n")
     assert f"polishpath {VERSION}" in text and "(seed: 5)" in text and "params.pattern: raster" in text
     assert "COORDINATES: TOOL-PART CONTACT POINT" in text and "FEED: G94" in text
-    assert "(segmenting: chord)" in text and "(coordinate_resolution_mm: 0.0001)" in text
+    assert "(segmenting: chord)" in text and "(coordinate_resolution_mm: 0.0001)" in text and "(arcs: True)" in text
+    assert max(len(ln) for ln in text.splitlines()) <= 256  # LinuxCNC reads at most 256 characters a line
     body = _lines(text)
     assert body[:5] == ["G21 G90 G17 G94", "G40 G49 G80 G54", "G64 P0.005000", "M3 S230", "M8"]
     pieces = _pieces_of(tool_path)
@@ -126,7 +134,7 @@ def test_linuxcnc_program_in_order(tool_path):
         # the path's blocks: modal words only (G01 is in force from the approach)
         j = i + 4
         while not body[j].startswith("G01"):
-            assert body[j][0] in "XYZF", body[j]
+            assert body[j][0] in "XYZF" or body[j].split()[0] in ("G1", "G2", "G3"), body[j]
             j += 1
         assert j - (i + 4) < b - a - 1  # fewer blocks than samples: merged within the tolerances
         # retract along the end normal at the approach feed, back to the clearance plane
@@ -442,39 +450,98 @@ def _scheduled_region_times(tp, k):
     return np.diff(np.interp(rb, u, t)), rb
 
 
-@pytest.mark.parametrize("radius", [0.0, 3.0])
-def test_segmenting_keeps_dwell_points_on_the_path_and_the_chord_within_tolerance(tool_path, radius):
-    post = get_post("linuxcnc")
+def _driven_curve(tool_path, u, radius):
+    q = evaluate(tool_path.curve, u)
+    if radius:
+        from polishpath.export.chunks import normals_at
+
+        q = q + radius * normals_at(tool_path, u)
+    return q
+
+
+def _circle_through(a, m, c):
+    """Centre (2,) and radius of the XY circle through three points, and the turn (+1 counter-clockwise)."""
+    b, e = m[:2] - a[:2], c[:2] - a[:2]
+    den = 2 * (b[0] * e[1] - b[1] * e[0])
+    ux = (e[1] * (b @ b) - b[1] * (e @ e)) / den
+    uy = (b[0] * (e @ e) - e[0] * (b @ b)) / den
+    return a[:2] + [ux, uy], float(np.hypot(ux, uy)), (1 if den > 0 else -1)
+
+
+def _dist_to_move(q, start, end, centre, turn):
+    """Distance of points q (m, 3) from a move (straight, or the helix of gcode_helpers.arc_points): dense
+    points along it, refined around the nearest (a bound from above of the true distance, to ~1e-9 mm)."""
+    if turn == 0:
+        return _dist_to_segment(q, start, end)
+    lam = np.linspace(0, 1, 4001)
+    pts = arc_points(start, end, centre, turn, lam)
+    out = []
+    for p in q:
+        i = int(np.argmin(np.linalg.norm(pts - p, axis=1)))
+        fine = np.clip(np.linspace(lam[i] - 3e-4, lam[i] + 3e-4, 601), 0, 1)
+        out.append(np.linalg.norm(arc_points(start, end, centre, turn, fine) - p, axis=1).min())
+    return np.array(out)
+
+
+@pytest.mark.parametrize("radius, arcs", [(0.0, True), (3.0, True), (0.0, False)])
+def test_segmenting_keeps_dwell_points_on_the_path_and_the_chord_within_tolerance(tool_path, radius, arcs):
+    from polishpath.export.blockfit import CCW, CW, LINE
+
+    post = get_post("linuxcnc", {"arcs": arcs})
     blocks = post.segment_blocks(tool_path, radius)
     sp = tool_path.surface_path
     tol = tool_path.provenance.params["chord_tol_mm"]  # the default: the smoothing stage's
     assert len(blocks) == len(_pieces_of(tool_path))
     normals = sample_normals(tool_path)
-    for k, (P, T, U) in enumerate(blocks):
+    worst, n_arcs, n_blocks = 0.0, 0, 0
+    for k, (P, T, U, kinds, ij) in enumerate(blocks):
         a, b = sp.planar.pieces[k], sp.planar.pieces[k + 1]
         dw = sp.xyz[a:b] + radius * sp.normals[a:b]
         # every dwell point is a block end, on the path to 1e-9 mm
         assert max(np.linalg.norm(P - d, axis=1).min() for d in dw) <= 1e-9
         assert np.all(np.diff(U) > 0) and np.all(np.diff(T) > 0)
+        assert set(kinds[1:]) <= ({LINE, CW, CCW} if arcs else {LINE})
         sa, sb = _pieces_of(tool_path)[k]
         assert len(P) < (sb - sa) + (b - a)  # merged: fewer block ends than samples + dwell points
         u, s = tool_path.sample_params[sa:sb], tool_path.samples[sa:sb] + radius * normals[sa:sb]
-        worst = 0.0
+        W = np.round(P, 4) + 0.0  # as written
         for i in range(len(P) - 1):
             inner = (u > U[i]) & (u < U[i + 1])
+            n_blocks += 1
             if not inner.any():
                 continue
             # the samples the block replaces and the curve at 1/4, 1/2, 3/4 between them (where the smoothing
-            # stage checks its own chords) are within the tolerance of the block
+            # stage checks its own chords) are within the tolerance of the block: a segment, or the helix
+            # through the block's start, middle and end points (XY arc, Z linear along it)
             ui = np.concatenate([[U[i]], u[inner], [U[i + 1]]])
             uq = (ui[:-1, None] + np.array([0.25, 0.5, 0.75]) * np.diff(ui)[:, None]).ravel()
-            q = evaluate(tool_path.curve, uq)
-            if radius:
-                from polishpath.export.chunks import normals_at
-
-                q = q + radius * normals_at(tool_path, uq)
-            worst = max(worst, _dist_to_segment(np.vstack([s[inner], q]), P[i], P[i + 1]).max())
-        assert 0.3 * tol < worst <= tol * (1 + 1e-9)
+            q = np.vstack([s[inner], _driven_curve(tool_path, uq, radius)])
+            if kinds[i + 1] == LINE:
+                worst = max(worst, _dist_to_segment(q, P[i], P[i + 1]).max())
+                continue
+            n_arcs += 1
+            pts = np.vstack([P[i], s[inner], P[i + 1]])
+            centre, r, turn = _circle_through(pts[0], pts[(len(pts) - 1) // 2], pts[-1])
+            assert turn == (1 if kinds[i + 1] == CCW else -1)
+            worst = max(worst, _dist_to_move(q, P[i], P[i + 1], centre, turn).max())
+            # the arc as written (ends and incremental centre at 0.1 um): LinuxCNC's radius rule well kept,
+            # within one resolution (beyond the ends' own rounding) of the fitted arc
+            wc = W[i, :2] + ij[i + 1]
+            assert np.allclose(ij[i + 1], np.round(ij[i + 1], 4), atol=1e-12, rtol=0)
+            rs, re = np.linalg.norm(W[i, :2] - wc), np.linalg.norm(W[i + 1, :2] - wc)
+            assert abs(rs - re) <= 2e-4 + 1e-12
+            lam = np.array([0.25, 0.5, 0.75])
+            shift = max(np.linalg.norm(W[i] - P[i]), np.linalg.norm(W[i + 1] - P[i + 1]))
+            off = np.linalg.norm(arc_points(W[i], W[i + 1], wc, turn, lam) - arc_points(P[i], P[i + 1], centre, turn,
+                                                                                       lam), axis=1)
+            assert off.max() <= shift + 1e-4 + 1e-12
+    assert 0.3 * tol < worst <= tol * (1 + 1e-9)
+    if arcs:
+        assert n_arcs > 0  # the serpentine's turns
+        lines_only = get_post("linuxcnc", {"arcs": False}).segment_blocks(tool_path, radius)
+        assert n_blocks < sum(len(x[0]) - 1 for x in lines_only)
+    else:
+        assert n_arcs == 0
 
 
 @pytest.mark.parametrize("radius", [0.0, 3.0])
@@ -486,37 +553,49 @@ def test_delivered_time_around_every_dwell_point_is_within_its_tolerance(tool_pa
     assert ("G93" in text) == (radius > 0)
     sp = tool_path.surface_path
     driven = tool_path.samples + radius * sample_normals(tool_path)
+    arcs = _path_arcs(text)
+    assert sum(int(np.count_nonzero(tr)) for _, tr in arcs) > 0  # arcs among the blocks
     for k, (pts, feed, inv, t) in enumerate(_path_runs(text)):
         sched, rb = _scheduled_region_times(tool_path, k)
         a, b = sp.planar.pieces[k], sp.planar.pieces[k + 1]
         sa, sb = _pieces_of(tool_path)[k]
         # each region boundary where the schedule places it: on the sampled path, linear in the parameter
         bq = points_at_params(driven[sa:sb], tool_path.sample_params[sa:sb], rb[1:-1])
-        got = delivered_region_times(pts, t, sp.xyz[a:b] + radius * sp.normals[a:b], bq)
+        got = delivered_region_times(pts, t, sp.xyz[a:b] + radius * sp.normals[a:b], bq, centres=arcs[k][0],
+                                     turns=arcs[k][1])
         rel = np.abs(got / sched - 1)
         assert rel.max() <= time_tol, rel.max()
         assert got.sum() == pytest.approx(sched.sum(), rel=FEED_RES)
 
 
 def test_modal_words_parse_back_with_both_parsers_to_the_same_points(tool_path):
-    for kw in ({}, {"tool_radius": 3.0}, {"segmenting": "period"}):
+    for kw in ({}, {"tool_radius": 3.0}, {"segmenting": "period"}, {"arcs": False}):
         text = _gcode(tool_path, **kw)
         a, b = moves_gcodeparser(text), moves_pygcode(text)
         assert len(a.ends) == len(b.ends) > len(tool_path.surface_path.xyz)
         assert np.array_equal(a.ends, b.ends) and np.array_equal(a.feed, b.feed)
         assert np.array_equal(a.inverse, b.inverse) and np.array_equal(a.rapid, b.rapid)
+        assert np.array_equal(a.turns, b.turns) and np.array_equal(a.centres, b.centres, equal_nan=True)
+        assert (np.count_nonzero(a.turns) > 0) == (kw in ({}, {"tool_radius": 3.0}))
         # the blocks' end points are the unrounded segmenting's, to the coordinate resolution
         blocks = get_post("linuxcnc", {k: v for k, v in kw.items() if k != "tool_radius"}).segment_blocks(
             tool_path, kw.get("tool_radius", 0.0))
-        for (pts, *_), (P, _, _) in zip(_path_runs(text), blocks):
+        for (pts, *_), (P, *_) in zip(_path_runs(text), blocks):
             assert pts.shape == P.shape and np.abs(pts - P).max() <= RES
-    # no path block repeats a word that did not change; G94's F changes by more than its resolution
+    # no path block repeats a word that did not change (I J are not modal: every arc has them); the motion
+    # word only where the motion changes; G94's F changes by more than its resolution
     text = _gcode(tool_path)
-    pos, f = {}, None
+    pos, f, mode = {}, None, None
     for ln in _lines(text):
-        words = dict((w[0], float(w[1:])) for w in ln.split() if w[0] in "XYZF")
-        if ln[0] in "XYZF":
-            assert not ln.startswith("G")
+        words = dict((w[0], float(w[1:])) for w in ln.split() if w[0] in "XYZFIJG")
+        if ln.startswith(("G01", "G00")):
+            mode = "G01" if ln.startswith("G01") else None
+        elif ln[0] in "XYZF" or ln.split()[0] in ("G1", "G2", "G3"):
+            if ln[0] == "G":
+                g = ln.split()[0]
+                assert g in ("G1", "G2", "G3") and g != {"G01": "G1"}.get(mode, mode), ln
+                mode = g
+            assert ("I" in words and "J" in words) == (mode in ("G2", "G3")), ln
             for axis in "XYZ":
                 if axis in words:
                     assert words[axis] != pos.get(axis), ln
@@ -526,6 +605,7 @@ def test_modal_words_parse_back_with_both_parsers_to_the_same_points(tool_path):
         f = words.get("F", f)
     body = _lines(text)
     assert sum(ln.startswith("G01") for ln in body) == 2 * len(_pieces_of(tool_path))  # the approach, the retract
+    assert any(ln.startswith("G2 ") for ln in body) and any(ln.startswith("G3 ") for ln in body)
 
 
 def test_a_coarser_tolerance_writes_fewer_blocks_and_the_counts_are_reported(tool_path):
@@ -538,7 +618,10 @@ def test_a_coarser_tolerance_writes_fewer_blocks_and_the_counts_are_reported(too
     assert fine["lines_per_dwell_point"] == pytest.approx(fine["motion_blocks"] / n)
     text = _gcode(tool_path)
     assert f"motion blocks: {fine['motion_blocks']} for {n} dwell points" in text
-    assert "bytes per dwell point" in text and "(segment_time_tol: 0.01)" in text
+    assert "bytes per dwell point" in text and "(segment_time_tol: 0.01)" in text and "(arcs: True)" in text
+    lines = write_gcode(tool_path, io.StringIO(), arcs=False)
+    assert fine["arc_blocks"] > 0 and lines["arc_blocks"] == 0 and fine["arcs"] and not lines["arcs"]
+    assert fine["motion_blocks"] < lines["motion_blocks"] and fine["bytes"] < lines["bytes"]
 
 
 @pytest.mark.parametrize("bad, words", [
@@ -546,6 +629,7 @@ def test_a_coarser_tolerance_writes_fewer_blocks_and_the_counts_are_reported(too
     ({"chord_tol_mm": 0.0}, "chord_tol_mm must be a number of mm > 0"),
     ({"time_tol": 1.5}, "time_tol must be a fraction"),
     ({"feed_resolution": 0.02}, "feed_resolution .* must be smaller than time_tol"),
+    ({"arcs": "yes"}, "arcs must be true or false"),
 ])
 def test_bad_segmenting_settings_are_refused_by_name(bad, words):
     with pytest.raises(ParameterError, match=words):
@@ -556,7 +640,8 @@ def test_bad_segmenting_settings_are_refused_by_name(bad, words):
 
 
 @pytest.mark.parametrize("post, kw", [("linuxcnc", {}), ("linuxcnc", {"tool_radius": 3.0}),
-                                      ("linuxcnc", {"segmenting": "period"}), ("fanuc", {}),
+                                      ("linuxcnc", {"segmenting": "period"}), ("linuxcnc", {"arcs": False}),
+                                      ("fanuc", {}),
                                       ("fanuc", {"mode": "linear", "tool_radius": 2.0})])
 def test_chunked_samples_write_the_same_bytes(tool_path, post, kw):
     from polishpath.export import sample_chunks

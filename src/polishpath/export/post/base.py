@@ -43,7 +43,7 @@ from ..chunks import SampleChunk, checked_chunks, dwell_offsets, normals_at, sam
 from ..files import _bytes_out, _fmt
 from ..segment import PieceSegmenter
 from .gouge import gouge_check
-from .linear import LinearMotion
+from .blocks import BlockMotion
 
 __all__ = ["PostSettings", "PostProcessor", "GcodePost", "offset_along_normals", "planned_segment_times"]
 
@@ -84,10 +84,14 @@ class PostSettings:
         Digits after the decimal point of coordinates (mm) and of F (4: a
         coordinate resolution of 0.1 um; 3: 0.001 mm/min, or 0.001 / min in G93).
     segmenting : {"chord", "period"}
-        ``chord`` (default): G01 blocks merge consecutive machine samples while the
+        ``chord`` (default): blocks merge consecutive machine samples while the
         chord and time tolerances hold, every dwell point a block end
-        (:mod:`polishpath.export.segment`); ``period``: one block per sample at
+        (:mod:`polishpath.export.segment`); ``period``: one G01 block per sample at
         the constant interpolation period.
+    arcs : bool
+        With ``chord`` segmenting: helical arcs (G02/G03 in G17, Z linear along
+        them, centre as incremental I J) where one fits, else G01 (default: true);
+        false: G01 only.
     chord_tol_mm : float or None
         Largest distance of the smooth curve from a merged block, mm; None (default):
         the smoothing stage's chord tolerance (1 um by default).
@@ -118,6 +122,7 @@ class PostSettings:
     decimals: int = 4
     feed_decimals: int = 3
     segmenting: str = "chord"
+    arcs: bool = True
     chord_tol_mm: float | None = None
     time_tol: float = 0.01
     feed_resolution: float = 0.001
@@ -176,6 +181,8 @@ class PostSettings:
                                                 not isinstance(self.program_number, int) or
                                                 not 1 <= self.program_number <= 9999):
             raise ParameterError(f"{where}: program_number must be 1..9999, got {self.program_number!r}.")
+        if not isinstance(self.arcs, bool):
+            raise ParameterError(f"{where}: arcs must be true or false, got {self.arcs!r}.")
         if not isinstance(self.comments, bool):
             raise ParameterError(f"{where}: comments must be true or false, got {self.comments!r}.")
 
@@ -323,28 +330,40 @@ class GcodePost(PostProcessor):
         return at
 
     def motion(self, tool_path: ToolPath, k: int, write, feed_mode: str, mode: str, tool_radius: float,
-               ctx: dict) -> LinearMotion:
-        """The writer of piece ``k``'s moves (``start``, ``add`` per chunk, ``finish``); linear G01 here."""
-        from ...smooth import evaluate
+               ctx: dict) -> BlockMotion:
+        """The writer of piece ``k``'s moves (``start``, ``add`` per chunk, ``finish``): G01 / G02 / G03 blocks."""
+        from ...smooth.nurbs import span_polynomials
 
         s = self.settings
         sp = tool_path.surface_path
         a, b = ctx["dwell_offsets"][k], ctx["dwell_offsets"][k + 1]
         # every dwell point a block end: the contact point, or the tool centre along its own normal
         dpts = sp.xyz[a:b] if tool_radius == 0 else offset_along_normals(sp.xyz[a:b], sp.normals[a:b], tool_radius)
-        at = self.driven(tool_path, tool_radius)
         inverse = feed_mode == "inverse-time"
-        seg = PieceSegmenter(tool_path.dwell_params[a:b], dpts, lambda u: at(evaluate(tool_path.curve, u), u),
+        if "curve_polys" not in ctx:
+            breaks, coeffs, _ = span_polynomials(tool_path.curve)
+            ctx["curve_polys"] = (np.ascontiguousarray(breaks), np.ascontiguousarray(coeffs),
+                                  np.ascontiguousarray(tool_path.dwell_params, dtype=np.float64),
+                                  np.ascontiguousarray(sp.normals, dtype=np.float64))
+        seg = PieceSegmenter(tool_path.dwell_params[a:b], dpts, ctx["curve_polys"] + (float(tool_radius),),
                              ctx["segment_tol_mm"], s.time_tol - (0.0 if inverse else s.feed_resolution),
-                             merge=s.segmenting == "chord")
-        return LinearMotion(seg, write, decimals=s.decimals, feed_decimals=s.feed_decimals, inverse_time=inverse,
-                            feed_resolution=s.feed_resolution, feed_in_force=s.approach_feed_mm_min)
+                             merge=s.segmenting == "chord", arcs=self.uses_arcs(), resolution_mm=10.0 ** -s.decimals,
+                             smooth_tol_mm=tool_path.provenance.params.get("chord_tol_mm"))
+        return BlockMotion(seg, write, decimals=s.decimals, feed_decimals=s.feed_decimals, inverse_time=inverse,
+                           feed_resolution=s.feed_resolution, feed_in_force=s.approach_feed_mm_min)
+
+    def uses_arcs(self) -> bool:
+        """Whether the linear mode writes helical arcs beside lines (``arcs`` with ``chord`` segmenting)."""
+        return self.settings.arcs and self.settings.segmenting == "chord"
 
     def segment_blocks(self, tool_path: ToolPath, tool_radius: float = 0.0,
-                       chunks: Iterable[SampleChunk] | None = None) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """The linear blocks before rounding, per piece: (points (k, 3) mm, planned times (k,) s, params (k,)).
+                       chunks: Iterable[SampleChunk] | None = None) -> list[tuple[np.ndarray, ...]]:
+        """The blocks before rounding, per piece: (points (k, 3) mm, planned times (k,) s, params (k,), kinds (k,),
+        ij (k, 2) mm).
 
-        The piece's first point (the approach's end) first, then every block end, as
+        ``kinds``: :data:`~polishpath.export.blockfit.LINE`, ``CW`` or ``CCW``; ``ij``: an arc's centre from
+        its rounded start, rounded (as written). The piece's first point (the approach's end, kind 0) first,
+        then every block end, as
         :meth:`write` segments them (for checks and benchmarks; the file rounds them).
         """
         feed_mode = self.feed_mode(float(tool_radius))
@@ -364,7 +383,7 @@ class GcodePost(PostProcessor):
             if starts:
                 close()
                 seg = self.motion(tool_path, c.piece, None, feed_mode, "linear", float(tool_radius), ctx).seg
-                parts = [(pts[:1], np.zeros(1), c.sample_params[:1])]
+                parts = [(pts[:1], np.zeros(1), c.sample_params[:1], np.zeros(1, np.int64), np.zeros((1, 2)))]
             parts.append(seg.add(c.samples, pts, c.sample_params, c.feed_mm_min))
         close()
         return out
@@ -393,7 +412,8 @@ class GcodePost(PostProcessor):
         if mode == "linear":
             hdr += [("segmenting", s.segmenting)]
             if s.segmenting == "chord":
-                hdr += [("segment_chord_tol_mm", ctx["segment_tol_mm"]), ("segment_time_tol", s.time_tol)]
+                hdr += [("segment_chord_tol_mm", ctx["segment_tol_mm"]), ("segment_time_tol", s.time_tol),
+                        ("arcs", self.uses_arcs())]
             if feed_mode != "inverse-time":
                 hdr += [("feed_resolution", s.feed_resolution)]
         lines = [_comment(f"{k}: {v}") for k, v in hdr]
@@ -413,6 +433,10 @@ class GcodePost(PostProcessor):
             lines.append(_comment("FEED: G94 mm/min of the driven point, each F set so the block takes its "
                                   "planned time"))
         if mode == "linear":
+            if self.uses_arcs():  # LinuxCNC reads at most 256 characters a line
+                lines.append(_comment("ARCS: G2/G3 helical arcs in the XY plane [G17], Z linear along the arc, "
+                                      "centre I J incremental from the arc's start; G1/G2/G3 only where the "
+                                      "motion changes"))
             lines.append(_comment("MODAL WORDS: G01 once per piece [the approach], axis words only when they change"
                                   + ("" if feed_mode == "inverse-time" else ", F only when the feed changes by more "
                                      f"than {s.feed_resolution:g} of the F in force")))
@@ -442,7 +466,7 @@ class GcodePost(PostProcessor):
         inverse = feed_mode == "inverse-time"
         chunks = sample_chunks(tool_path) if chunks is None else chunks
         at = self.driven(tool_path, tool_radius)
-        counts = {"bytes": 0, "samples": 0, "blocks": 0, "path_s": 0.0, "pieces": 0}
+        counts = {"bytes": 0, "samples": 0, "blocks": 0, "arcs": 0, "path_s": 0.0, "pieces": 0}
         with _bytes_out(file) as raw:
 
             def write(b: bytes) -> None:
@@ -478,6 +502,7 @@ class GcodePost(PostProcessor):
                      f"F{ff(s.approach_feed_mm_min)}\nG00 Z{f(safe)}\n")
                 counts["path_s"] += secs
                 counts["blocks"] += blocks
+                counts["arcs"] += getattr(m, "arcs", 0)
                 counts["pieces"] += 1
 
             for starts, chunk in checked_chunks(chunks, n_pieces):
@@ -515,6 +540,7 @@ class GcodePost(PostProcessor):
                 "clearance_z_mm": safe, "approach_mm": a, "approach_feed_mm_min": s.approach_feed_mm_min,
                 "segmenting": s.segmenting if mode == "linear" else None,
                 "segment_chord_tol_mm": ctx["segment_tol_mm"] if mode == "linear" else None,
+                "arcs": self.uses_arcs() if mode == "linear" else None, "arc_blocks": counts["arcs"],
                 "time_tol": s.time_tol, "feed_resolution": s.feed_resolution,
                 "coordinate_resolution_mm": 10.0 ** -s.decimals,
                 "path_time_s": counts["path_s"], "machining_time_s": counts["path_s"] + appr_s,

@@ -1,19 +1,23 @@
-"""Modal G01 blocks of one piece, streamed: segmenting, written coordinates, feeds (G94 or G93), words.
+"""Modal motion blocks of one piece, streamed: G01 lines and G02/G03 helical arcs, feeds (G94 or G93), words.
 
 The piece's samples arrive chunk by chunk (:class:`~polishpath.export.chunks.SampleChunk`);
-:class:`~polishpath.export.segment.PieceSegmenter` turns them into block end
-points (chord-tolerance segmenting, every dwell point a block end), and this
-module writes them as modal blocks:
+:class:`~polishpath.export.segment.PieceSegmenter` turns them into block ends
+(chord-tolerance segmenting, every dwell point a block end; lines, or arcs with
+their incremental centre), and this module writes them as modal blocks:
 
-* coordinates rounded to ``decimals`` (4: 0.1 um); a block whose written point
-  equals the previous one is merged into the next (its time goes with it);
-* the axis words that changed only (``X Y Z`` are modal), no ``G01`` (the
-  approach move's ``G01`` is in force);
-* G94: ``F`` (the written block's length over its planned time, mm/min) only
-  where it differs from the F in force by more than ``feed_resolution`` of
-  it; a block without F runs at the F in force, so its time is off by at most
-  that fraction. G93 (inverse time): ``F`` = 1 / minutes of the block on
-  every block (F is not modal in G93).
+* coordinates rounded to ``decimals`` (4: 0.1 um); a straight block whose
+  written point equals the previous one is merged into the next (its time goes
+  with it); an arc is never that short (:data:`~polishpath.export.blockfit.MIN_ARC_MM`);
+* the motion word (``G1``, ``G2`` clockwise, ``G3`` counter-clockwise, XY plane
+  G17) only where it changes (the approach move's ``G01`` is in force at the
+  start), the axis words that changed only (``X Y Z`` are modal), and on every
+  arc its centre ``I J`` from its start (incremental, LinuxCNC's and Fanuc's
+  default; not modal);
+* G94: ``F`` (the written block's length -- a line's, or the helix's -- over
+  its planned time, mm/min) only where it differs from the F in force by more
+  than ``feed_resolution`` of it; a block without F runs at the F in force, so
+  its time is off by at most that fraction. G93 (inverse time): ``F`` = 1 /
+  minutes of the block on every block (F is not modal in G93).
 """
 
 from __future__ import annotations
@@ -21,10 +25,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ..blockfit import LINE, written_arc_lengths
 from ..segment import PieceSegmenter
 from ..textfmt import format_fixed
 
-__all__ = ["LinearMotion", "modal_feed_words"]
+__all__ = ["BlockMotion", "modal_feed_words"]
 
 
 @numba.njit(cache=True)
@@ -58,8 +63,8 @@ def modal_feed_words(feed, in_force, resolution):  # pragma: no cover - numba
     return write, runs
 
 
-class LinearMotion:
-    """The G01 blocks of one piece; ``start``, ``add`` per chunk, ``finish``.
+class BlockMotion:
+    """The motion blocks of one piece; ``start``, ``add`` per chunk, ``finish``.
 
     Parameters
     ----------
@@ -81,13 +86,15 @@ class LinearMotion:
         self.d, self.fd = int(decimals), int(feed_decimals)
         self.inverse_time, self.res = bool(inverse_time), float(feed_resolution)
         self.f_force = float(feed_in_force)
+        self.mode = LINE  # the approach's G01 is in force
         self.w_prev = None  # last written point (rounded), mm
         self.w_seen = None  # rounded last block end seen (written or merged)
         self.t_written = 0.0  # planned time at the last written point, s
         self.t_latest = 0.0
-        self.held = None  # (w, t) the last kept point, written once the next is known (or at the end)
+        self.held = None  # (w, t, kind, ij): the last kept block, written once the next is known (or at the end)
         self.seconds = 0.0  # the controller's time of the written blocks, s
         self.blocks = 0
+        self.arcs = 0
 
     def start(self, first_point: np.ndarray) -> None:
         """The piece's first driven point (where the approach move ends)."""
@@ -95,38 +102,41 @@ class LinearMotion:
         self.w_seen = self.w_prev
 
     def add(self, contact, driven, params, feed_mm_min) -> None:
-        self._ends(*self.seg.add(contact, driven, params, feed_mm_min)[:2])
+        self._ends(*self.seg.add(contact, driven, params, feed_mm_min))
 
     def finish(self) -> tuple[float, int]:
         """Write the rest; returns (seconds the controller takes, blocks written)."""
-        self._ends(*self.seg.finish()[:2])
+        self._ends(*self.seg.finish())
         if self.held is not None:
-            w, _ = self.held
-            self._emit(w[None, :], np.array([self.t_latest]))  # merged trailing points' time goes to the last block
+            w, _, kind, ij = self.held
+            # merged trailing points' time goes to the last block
+            self._emit(w[None, :], np.array([self.t_latest]), np.array([kind]), ij[None, :])
             self.held = None
         return self.seconds, self.blocks
 
-    def _ends(self, P: np.ndarray, T: np.ndarray) -> None:
+    def _ends(self, P: np.ndarray, T: np.ndarray, U: np.ndarray, kinds: np.ndarray, ij: np.ndarray) -> None:
         if len(P) == 0:
             return
         W = np.round(P, self.d) + 0.0
         moved = np.any(W != np.vstack([self.w_seen[None, :], W[:-1]]), axis=1)
         self.w_seen = W[-1]
         self.t_latest = float(T[-1])
-        kw, kt = W[moved], T[moved]
+        kw, kt, kk, kij = W[moved], T[moved], kinds[moved], ij[moved]
         if len(kw) == 0:
             return
         if self.held is not None:
-            kw = np.vstack([self.held[0][None, :], kw])
-            kt = np.concatenate([[self.held[1]], kt])
-        self.held = (kw[-1], float(kt[-1]))
+            hw, ht, hk, hij = self.held
+            kw, kt = np.vstack([hw[None, :], kw]), np.concatenate([[ht], kt])
+            kk, kij = np.concatenate([[hk], kk]), np.vstack([hij[None, :], kij])
+        self.held = (kw[-1], float(kt[-1]), int(kk[-1]), kij[-1])
         if len(kw) > 1:
-            self._emit(kw[:-1], kt[:-1])
+            self._emit(kw[:-1], kt[:-1], kk[:-1], kij[:-1])
 
-    def _emit(self, W: np.ndarray, T: np.ndarray) -> None:
+    def _emit(self, W: np.ndarray, T: np.ndarray, kinds: np.ndarray, ij: np.ndarray) -> None:
         prev = np.vstack([self.w_prev[None, :], W[:-1]])
         dt = np.diff(np.concatenate([[self.t_written], T]))
-        length = np.linalg.norm(W - prev, axis=1)
+        length = written_arc_lengths(np.ascontiguousarray(prev), np.ascontiguousarray(W), kinds.astype(np.int64),
+                                     np.ascontiguousarray(ij, dtype=np.float64))
         if self.inverse_time:
             feed = np.round(60.0 / np.maximum(dt, 1e-12), self.fd) + 0.0  # 1/min: the block takes 1/F minutes
             words = np.ones(len(W), bool)
@@ -136,8 +146,13 @@ class LinearMotion:
             words, runs = modal_feed_words(feed, self.f_force, self.res)
             self.f_force = float(runs[-1])
             self.seconds += float(np.sum(length * 60.0 / runs))
-        present = np.column_stack([W != prev, words])
-        self.write(format_fixed(np.column_stack([W, feed]), [self.d, self.d, self.d, self.fd], letters="XYZF",
+        arc = kinds != LINE
+        gword = kinds != np.concatenate([[self.mode], kinds[:-1]])
+        present = np.column_stack([gword, W != prev, arc, arc, words])  # an arc always moves in XY
+        values = np.column_stack([kinds.astype(np.float64), W, ij, feed])
+        self.write(format_fixed(values, [0, self.d, self.d, self.d, self.d, self.d, self.fd], letters="GXYZIJF",
                                 present=present))
+        self.mode = int(kinds[-1])
         self.w_prev, self.t_written = W[-1], float(T[-1])
         self.blocks += len(W)
+        self.arcs += int(np.count_nonzero(arc))
