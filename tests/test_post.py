@@ -394,6 +394,51 @@ def test_post_options_from_the_command_line_and_a_post_table(tmp_path):
     assert json.loads((tmp_path / "e" / "summary.json").read_text())["post"]["file"] == "toolpath.xyz"
 
 
+def test_segment_options_from_the_command_line_and_a_job_file(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    base = [sys.executable, "-m", "polishpath", "plan", "--no-report", "-q"]
+    part = ["hemisphere:R=12,triangles=700", "--spacing", "2", "--seed", "4"]
+    r = subprocess.run([*base, *part, "-o", str(tmp_path / "a")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    post = json.loads((tmp_path / "a" / "summary.json").read_text())["post"]
+    # the defaults: arcs, 1 % of the 2 mm spacing, 1 % of the time
+    assert post["arcs"] and post["arc_blocks"] > 0 and post["segment_chord_tol_mm"] == pytest.approx(0.02)
+    assert post["time_tol"] == 0.01
+    r = subprocess.run([*base, *part, "--segment-tol", "0.005", "--segment-time-tol", "0.02", "--no-arcs", "-o",
+                        str(tmp_path / "b")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    s = json.loads((tmp_path / "b" / "summary.json").read_text())
+    post = s["post"]
+    assert not post["arcs"] and post["arc_blocks"] == 0 and post["segment_chord_tol_mm"] == 0.005
+    assert post["time_tol"] == 0.02 and post["motion_blocks"] > json.loads(
+        (tmp_path / "a" / "summary.json").read_text())["post"]["motion_blocks"]
+    nc = (tmp_path / "b" / "toolpath.nc").read_text()
+    assert "(segment_chord_tol_mm: 0.005)" in nc and "\nG2 " not in nc and "\nG3 " not in nc
+    # the run's job.toml keeps them: re-running it writes the same G-code
+    r = subprocess.run([*base, "--config", str(tmp_path / "b" / "job.toml"), "-o", str(tmp_path / "c")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "c" / "toolpath.nc").read_text() == nc
+    # the job option wins over a [post] table's setting
+    job = tmp_path / "job.toml"
+    job.write_text('[job]\nsurface = "hemisphere:R=12,triangles=700"\nspacing = 2.0\nseed = 4\nsegment_tol_mm = 0.01\n'
+                   '\n[post]\nchord_tol_mm = 0.003\narcs = false\n')
+    r = subprocess.run([*base, "--config", str(job), "-o", str(tmp_path / "d")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    post = json.loads((tmp_path / "d" / "summary.json").read_text())["post"]
+    assert post["segment_chord_tol_mm"] == 0.01 and not post["arcs"]
+    # bad values: a clear message, exit 2, before any work
+    for bad, words in ((["--segment-time-tol", "1.5"], "segment_time_tol (--segment-time-tol) must be a fraction"),
+                       (["--segment-tol", "0"], "segment_tol_mm must be a positive number"),
+                       (["--segment-time-tol", "0.0005"], "feed_resolution (0.001) must be smaller than time_tol")):
+        r = subprocess.run([*base, *part, *bad, "-o", str(tmp_path / "e")], capture_output=True, text=True)
+        assert r.returncode == 2 and words in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert not (tmp_path / "e").exists()
+
+
 # --------------------------------------------------------------------------- gouge
 
 
@@ -490,7 +535,8 @@ def test_segmenting_keeps_dwell_points_on_the_path_and_the_chord_within_toleranc
     post = get_post("linuxcnc", {"arcs": arcs})
     blocks = post.segment_blocks(tool_path, radius)
     sp = tool_path.surface_path
-    tol = tool_path.provenance.params["chord_tol_mm"]  # the default: the smoothing stage's
+    tol = post.segment_tol(tool_path)  # the default: 1 % of the spacing (2 mm), over the smoothing stage's 5 um
+    assert tol == pytest.approx(0.02) and tool_path.provenance.params["chord_tol_mm"] == 0.005
     assert len(blocks) == len(_pieces_of(tool_path))
     normals = sample_normals(tool_path)
     worst, n_arcs, n_blocks = 0.0, 0, 0

@@ -140,6 +140,11 @@ class JobConfig:
     gcode : {"linear", "nurbs"} or None
         G-code flavour: dense G01 moves or G06.2 NURBS blocks; None: the post's own
         (linuxcnc: linear, all LinuxCNC takes; fanuc: nurbs).
+    segment_tol_mm, segment_time_tol, arcs
+        The G-code's segmenting (the post settings ``chord_tol_mm``, ``time_tol``, ``arcs``, over a
+        ``[post]`` table's; docs/machine-output.md): most the curve may leave a merged block, mm (None:
+        1 % of the spacing, at least ``chord_tol_mm``); most a dwell point's time may differ from its
+        schedule (None: 0.01); helical arcs where one fits (None: yes).
     tool_radius : float
         Offset contact points to the tool centre along the normal, mm (0: none);
         the feeds become those of the tool centre, so every segment keeps its planned time.
@@ -217,6 +222,16 @@ class JobConfig:
     gcode: str | None = option(None, "--gcode", choices=("linear", "nurbs"),
                                help="'linear' (G01; linuxcnc's, the only one LinuxCNC runs) or 'nurbs' (G06.2, "
                                     "--post fanuc's default).")
+    segment_tol_mm: float | None = option(
+        None, "--segment-tol", positive=True,
+        help="G-code: most the smooth curve may leave a merged G01/G02/G03 block, mm (default: 1 % of the "
+             "spacing, at least --chord-tol).")
+    segment_time_tol: float | None = option(
+        None, "--segment-time-tol", positive=True,
+        help="G-code: most the time spent around a dwell point may differ from its schedule, a fraction below 1 "
+             "(default 0.01).")
+    arcs: bool | None = option(None, "--arcs/--no-arcs",
+                               help="G-code: helical arcs (G02/G03) where one fits, else G01 (default), or G01 only.")
     tool_radius: float = option(0.0, "--tool-radius",
                                 help="Ball/sponge radius, mm: the G-code drives the tool centre (contact point + "
                                      "radius along the normal) with feeds that keep every segment's planned time.",

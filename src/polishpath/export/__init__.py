@@ -35,7 +35,7 @@ from .files import (
     write_xyz,
     xyz_writer,
 )
-from .post import DEFAULT_POST, POSTS, PostSettings, get_post, offset_along_normals, write_program
+from .post import DEFAULT_POST, POSTS, PostSettings, get_post, job_post_settings, offset_along_normals, write_program
 
 __all__ = [
     "write_path_csv",
@@ -48,6 +48,7 @@ __all__ = [
     "offset_along_normals",
     "read_dwell_times",
     "get_post",
+    "job_post_settings",
     "POSTS",
     "DEFAULT_POST",
     "PostSettings",

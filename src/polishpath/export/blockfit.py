@@ -238,6 +238,27 @@ def _helix_dist(qx, qy, qz, ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c):  # pr
 
 
 @numba.njit(cache=True)
+def _helix_nearest(qx, qy, qz, ox, oy, R, sgn, D, th0, z0, dz, lam):  # pragma: no cover - numba
+    """Fraction of the helix (0..1) at the point nearest to q: Newton's method on (H - q) . H' = 0 from
+    ``lam`` (the same-angle fraction; on a steep helix the nearest point is elsewhere), clamped to the arc."""
+    for _ in range(8):
+        th = th0 + sgn * lam * D
+        c, s = math.cos(th), math.sin(th)
+        hx, hy, hz = ox + R * c - qx, oy + R * s - qy, z0 + lam * dz - qz
+        d1x, d1y = -R * s * sgn * D, R * c * sgn * D
+        d2x, d2y = -R * c * D * D, -R * s * D * D
+        g = hx * d1x + hy * d1y + hz * dz
+        gp = d1x * d1x + d1y * d1y + dz * dz + hx * d2x + hy * d2y
+        if not gp > 0.0:
+            break
+        step = g / gp
+        lam = min(max(lam - step, 0.0), 1.0)
+        if abs(step) < 1e-12:
+            break
+    return lam
+
+
+@numba.njit(cache=True)
 def _sweep(sgn, ax, ay, bx, by):  # pragma: no cover - numba
     """Angle from vector a to vector b turning in direction sgn (+1: counter-clockwise), in (0, 2 pi]."""
     ph = math.atan2(sgn * (ax * by - ay * bx), ax * bx + ay * by)
@@ -347,9 +368,12 @@ def _arc_fits(F, B, s, c, tol, e_s, res, rounding):  # pragma: no cover - numba
                 if d > tol:
                     return 0, LINE, 0.0, 0.0
         f = F[i, BFRAC]
-        if f == f:
-            _, lam = _helix_dist(F[i, 0] + f * (F[i + 1, 0] - F[i, 0]), F[i, 1] + f * (F[i + 1, 1] - F[i, 1]),
-                                 F[i, 2] + f * (F[i + 1, 2] - F[i, 2]), ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c)
+        if f == f:  # where the uniform motion along the helix passes the boundary's nearest point
+            bx = F[i, 0] + f * (F[i + 1, 0] - F[i, 0])
+            by = F[i, 1] + f * (F[i + 1, 1] - F[i, 1])
+            bz = F[i, 2] + f * (F[i + 1, 2] - F[i, 2])
+            _, lam = _helix_dist(bx, by, bz, ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c)
+            lam = _helix_nearest(bx, by, bz, ox, oy, R, sgn, D, math.atan2(vsy, vsx), z0, dz, lam)
             if abs(F[s, TT] + lam * (F[c, TT] - F[s, TT]) - F[i, BTIME]) > F[i, BLIM]:
                 return 0, LINE, 0.0, 0.0
         d_prev = d_next

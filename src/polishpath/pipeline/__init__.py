@@ -145,10 +145,10 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
 
 def check_machine_output(cfg: JobConfig):
     """Refuse, before any work, what the post or the machine cannot take; returns the machine profile (or None)."""
-    from ..export import get_post
+    from ..export import get_post, job_post_settings
 
     machine = machine_profile(cfg)
-    post = get_post(post_name(cfg), cfg.post_settings)
+    post = get_post(post_name(cfg), job_post_settings(cfg))
     post.check(mode=cfg.gcode, tool_radius=cfg.tool_radius)
     if machine is not None and post.filename != "toolpath.nc":
         raise ParameterError(

@@ -142,9 +142,9 @@ class Job:
         with staged_folder(target, is_run_folder, need_bytes=need, kind="polishpath run folder") as out:
             with progress.stage("writing machine files", self.timings, "write"):
                 cfg = self.config
-                info = export.write_program(self.tool_path, out, post=post_name(cfg), settings=cfg.post_settings,
-                                            mode=cfg.gcode, tool_radius=cfg.tool_radius, header=header,
-                                            surface=self.surface)
+                info = export.write_program(self.tool_path, out, post=post_name(cfg),
+                                            settings=export.job_post_settings(cfg), mode=cfg.gcode,
+                                            tool_radius=cfg.tool_radius, header=header, surface=self.surface)
                 if info.get("path"):  # the summary names the file where it will be, not in the staging folder
                     info["path"] = str(target / Path(info["path"]).relative_to(out))
                 self.program.clear()  # the record of what the post wrote fills as the files are written (like timings)

@@ -29,7 +29,8 @@ from .fanuc import FanucPost
 from .files import CsvPost, XyzPost
 from .linuxcnc import LinuxCNCPost
 
-__all__ = ["POSTS", "DEFAULT_POST", "get_post", "write_program", "post_help", "PostProcessor", "GcodePost",
+__all__ = ["POSTS", "DEFAULT_POST", "get_post", "write_program", "post_help", "job_post_settings", "PostProcessor",
+           "GcodePost",
            "PostSettings", "LinuxCNCPost", "FanucPost", "XyzPost", "CsvPost", "offset_along_normals",
            "planned_segment_times"]
 
@@ -43,6 +44,29 @@ def get_post(name: str = DEFAULT_POST, settings: PostSettings | dict[str, Any] |
     if cls is None:
         raise ParameterError(f"Unknown post-processor {name!r}.", f"Use one of: {', '.join(POSTS)}.")
     return cls(settings)
+
+
+#: job options (:class:`polishpath.config.JobConfig` fields, their flags) that set a post setting
+JOB_POST_OPTIONS = {"segment_tol_mm": ("chord_tol_mm", "--segment-tol"),
+                    "segment_time_tol": ("time_tol", "--segment-time-tol"), "arcs": ("arcs", "--arcs")}
+
+
+def job_post_settings(cfg) -> dict[str, Any] | None:
+    """The post settings of a job: its ``[post]`` table with the job's own G-code options over it.
+
+    ``cfg`` is a :class:`polishpath.config.JobConfig` (checked: types and signs); an option left out
+    (None) leaves the table's setting, or the post's default.
+    """
+    out = dict(cfg.post_settings or {})
+    for opt, (setting, flag) in JOB_POST_OPTIONS.items():
+        v = getattr(cfg, opt, None)
+        if v is None:
+            continue
+        if opt == "segment_time_tol" and not 0 < v < 1:
+            raise ParameterError(f"{opt} ({flag}) must be a fraction between 0 and 1, got {v!r}.",
+                                 "E.g. 0.01: each dwell point's time within 1 % of its schedule.")
+        out[setting] = v
+    return out or None
 
 
 def post_help() -> str:

@@ -48,6 +48,9 @@ from .blocks import BlockMotion
 __all__ = ["PostSettings", "PostProcessor", "GcodePost", "offset_along_normals", "planned_segment_times"]
 
 FEED_MODES = ("auto", "inverse-time", "per-minute")
+#: the G-code's default segment tolerance: this fraction of the dwell-point spacing on the part (and never
+#: below the smoothing stage's chord tolerance; docs/machine-output.md says why)
+SEGMENT_TOL_OF_SPACING = 0.01
 SEGMENTINGS = ("chord", "period")
 
 
@@ -94,7 +97,8 @@ class PostSettings:
         false: G01 only.
     chord_tol_mm : float or None
         Largest distance of the smooth curve from a merged block, mm; None (default):
-        the smoothing stage's chord tolerance (1 um by default).
+        :data:`SEGMENT_TOL_OF_SPACING` (1 %) of the dwell-point spacing on the part
+        (5 um at 0.5 mm), at least the smoothing stage's chord tolerance (1 um by default).
     time_tol : float
         Largest relative difference between the time the G-code spends around a
         dwell point (its region) and the schedule, 0.01 = 1 %.
@@ -315,8 +319,18 @@ class GcodePost(PostProcessor):
         return _fmt(v, self.settings.feed_decimals)
 
     def chord_tol(self, tool_path: ToolPath) -> float:
-        """The smoothing stage's chord tolerance, mm (the blending's and, by default, the segmenting's)."""
+        """The smoothing stage's chord tolerance, mm (the blending's)."""
         return float(tool_path.provenance.params.get("chord_tol_mm", tool_path.stats.get("chord_tol_mm", 0.001)))
+
+    def segment_tol(self, tool_path: ToolPath) -> float:
+        """The segmenting's chord tolerance, mm: ``chord_tol_mm``, else :data:`SEGMENT_TOL_OF_SPACING` of the
+        dwell-point spacing on the part (the path's ``spacing``, else its shortest step), at least the
+        smoothing stage's chord tolerance."""
+        if self.settings.chord_tol_mm:
+            return float(self.settings.chord_tol_mm)
+        st = tool_path.surface_path.stats
+        spacing = st.get("spacing") or st.get("step_min") or 0.0
+        return max(self.chord_tol(tool_path), SEGMENT_TOL_OF_SPACING * float(spacing))
 
     # ---------------------------------------------------------------- per piece
     def driven(self, tool_path: ToolPath, tool_radius: float):
@@ -368,7 +382,7 @@ class GcodePost(PostProcessor):
         """
         feed_mode = self.feed_mode(float(tool_radius))
         ctx = {"dwell_offsets": dwell_offsets(tool_path),
-               "segment_tol_mm": self.settings.chord_tol_mm or self.chord_tol(tool_path)}
+               "segment_tol_mm": self.segment_tol(tool_path)}
         at = self.driven(tool_path, float(tool_radius))
         out, seg, parts = [], None, None
 
@@ -452,7 +466,7 @@ class GcodePost(PostProcessor):
         sp = tool_path.surface_path
         doff = dwell_offsets(tool_path)
         n_pieces = len(doff) - 1
-        ctx = {"dwell_offsets": doff, "segment_tol_mm": s.chord_tol_mm or self.chord_tol(tool_path)}
+        ctx = {"dwell_offsets": doff, "segment_tol_mm": self.segment_tol(tool_path)}
         ctx.update(self.prepare(tool_path, mode, tool_radius))
         a = s.approach_mm
         # the clearance plane from what is known before the samples: a bound of the curve, the approach points
