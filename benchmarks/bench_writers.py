@@ -16,9 +16,11 @@ same format, and Python's ``%`` over a chunk-sized format string (how these
 writers formatted before; about 5x faster than savetxt). Peers run on at most
 10^6 rows (their MB/s does not depend on the count). Each line prints MB/s and
 the ratio to savetxt. ``--job`` adds a real job (hemisphere R = 12 mm at
-0.5 mm): the whole G-code writer (segmenting + formatting) in samples/s and
-MB/s, lines and bytes per dwell point, chord-segmented against the fixed
-period. The machine is shared (load average printed).
+0.5 mm; ``--toolpath FILE``: a pickled ToolPath): the whole G-code writer
+(segmenting + formatting) in samples/s and MB/s, lines and bytes per dwell
+point: the fixed period, straight blocks and helical arcs at chord tolerances
+of 1, 2, 5 and 10 um (1 % time tolerance), the default (1 % of the spacing)
+and with a tool radius (G93). The machine is shared (load average printed).
 """
 
 from __future__ import annotations
@@ -103,32 +105,51 @@ def bench_rows(n: int, work: Path) -> list[tuple[str, float, float, float, float
     return out
 
 
-def bench_job() -> None:
+def bench_job(pickled: str | None = None) -> None:
+    """The whole G-code writer on a real job: MB/s, lines and bytes per dwell point, lines against arcs."""
     from polishpath.export import write_gcode
     from polishpath.pipeline import run
 
-    job = run(surface="hemisphere:R=12,triangles=3000", spacing=0.5, seed=11, report=False)
-    tp = job.tool_path
+    if pickled:
+        import pickle
+
+        with open(pickled, "rb") as fh:
+            tp = pickle.load(fh)
+        label = f"ToolPath from {pickled}"
+    else:
+        tp = run(surface="hemisphere:R=12,triangles=3000", spacing=0.5, seed=11, report=False).tool_path
+        label = "hemisphere R=12 mm, 0.5 mm, seed 11"
     n, m = len(tp.dwell_params), len(tp.samples)
     write_gcode(tp, io.BytesIO())  # compile / load the kernels
-    print(f"\njob: hemisphere R=12 mm, 0.5 mm, seed 11: {n:,} dwell points, {m:,} samples")
-    print("| G-code | tolerances | s | M samples/s | MB/s | lines / dwell point | bytes / dwell point |")
-    print("|---|---|---|---|---|---|---|")
-    for label, kw in [("fixed period", {"segmenting": "period"}), ("chord", {}),
-                      ("chord", {"chord_tol_mm": 0.005}), ("chord, G93 r = 5 mm", {"tool_radius": 5.0})]:
+    print(f"\njob: {label}: {n:,} dwell points, {m:,} samples; load average {os.getloadavg()[0]:.2f}")
+    print("| G-code | chord tol | time tol | s | M samples/s | MB | MB/s | lines / dwell point | "
+          "bytes / dwell point | arcs |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    cases = [("fixed period", {"segmenting": "period"})]
+    for arcs in (False, True):
+        for tol in (0.001, 0.002, 0.005, 0.01):
+            cases.append(("arcs + lines" if arcs else "lines", {"chord_tol_mm": tol, "arcs": arcs}))
+    cases += [("default", {}), ("default, G93 r = 5 mm", {"tool_radius": 5.0})]
+    for label, kw in cases:
         buf = io.BytesIO()
         t0 = time.perf_counter()
         info = write_gcode(tp, buf, **kw)
         t = time.perf_counter() - t0
-        tol = "" if label == "fixed period" else f"{info['segment_chord_tol_mm'] * 1000:g} um, {info['time_tol']:g}"
-        print(f"| {label} | {tol} | {t:.2f} | {m / t / 1e6:.2f} | {len(buf.getvalue()) / t / 1e6:.1f} | "
-              f"{info['lines_per_dwell_point']:.2f} | {info['bytes_per_dwell_point']:.0f} |")
+        mb = len(buf.getvalue()) / 1e6
+        tol = "" if label == "fixed period" else f"{info['segment_chord_tol_mm'] * 1000:g} um"
+        tt = "" if label == "fixed period" else f"{info['time_tol']:g}"
+        share = info["arc_blocks"] / max(info["motion_blocks"], 1)
+        print(f"| {label} | {tol} | {tt} | {t:.2f} | {m / t / 1e6:.2f} | {mb:.1f} | {mb / t:.1f} | "
+              f"{info['lines_per_dwell_point']:.2f} | {info['bytes_per_dwell_point']:.0f} | {share:.0%} |", flush=True)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", default="1e5,1e6", help="row counts, comma-separated (e.g. 1e5,1e6,1e7)")
     ap.add_argument("--job", action="store_true", help="also the whole G-code writer on a real job")
+    ap.add_argument("--toolpath", default=None,
+                    help="with --job: a pickled ToolPath (e.g. of a benchmarks/bench_job.py disk) instead of the "
+                         "hemisphere job")
     args = ap.parse_args(argv)
     from polishpath.export.textfmt import HAVE_STRFROMD, format_csv, format_fixed
 
@@ -145,7 +166,7 @@ def main(argv=None) -> int:
                 print(f"| {name} | {n:.0e} | {mb:.0f} | {ours:.1f} | {sav:.1f} | {pct:.1f} | {ours / sav:.1f} | "
                       f"{ours / pct:.1f} | {ok} |", flush=True)
     if args.job:
-        bench_job()
+        bench_job(args.toolpath)
     return 0
 
 
