@@ -288,6 +288,50 @@ def test_holes_survive(shape):
         assert fl.metrics["angle_error_mean_deg"] < 2.0
 
 
+def sphere_with_slot(n: int) -> Surface:
+    """A sphere (radius 10 mm, ``n`` points) opened at the north pole and cut by a
+    C-shaped slot around the south pole: the slot's rim folds around its own centroid,
+    as the ragged holes in the base of stanford-bunny.obj do."""
+    from scipy.spatial import ConvexHull
+
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    th = np.pi * (1 + 5**0.5) * k
+    p = np.c_[np.sqrt(1 - z * z) * np.cos(th), np.sqrt(1 - z * z) * np.sin(th), z] * 10
+    f = ConvexHull(p).simplices
+    c = p[f].mean(axis=1)
+    out = (np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]]) * c).sum(axis=1) < 0
+    f[out] = f[out][:, ::-1]
+    colat = np.arccos(np.clip(c[:, 2] / np.linalg.norm(c, axis=1), -1, 1))
+    lon = np.arctan2(c[:, 1], c[:, 0])
+    drop = (colat < 0.5) | ((np.pi - colat > 0.2) & (np.pi - colat < 0.35) & (np.abs(lon) > 0.8))
+    f = f[~drop]
+    used = np.unique(f)
+    remap = np.full(len(p), -1)
+    remap[used] = np.arange(len(used))
+    return Surface(p[used], remap[f], name="sphere-slot")
+
+
+def test_light_hole_fans_that_fold_are_stiffened():
+    # the bunny's defect: with the fans weighted 0.01 the cheapest way to close a rim
+    # vertex whose fan folds over the real faces is a fan corner through zero; every step
+    # is damped until the solve breaks down (what weights="inverse_square" still does)
+    s = sphere_with_slot(3000)
+    assert len(meshops.boundary_loops(s.faces)) == 2
+    with pytest.raises(FlatteningError, match=r"hole\(s\).*fold over the real faces.*Fill the holes"):
+        flatten(s, "mabf", weights="inverse_square")
+    fl = flatten(s, "mabf")  # "auto": the fans weighted like the real faces on a third attempt
+    assert fl.provenance.params["hole_fans_stiffened"] and fl.provenance.params["hole_weight"] == 1.0
+    assert fl.metrics["flipped_faces"] == 0 and fl.metrics["boundary_self_overlap"] == 0
+    assert max(fl.metrics[f"max_{k}_residual"] for k in ("triangle", "vertex", "wheel")) < 1e-8
+    assert len(boundary_region(fl).holes) == 1
+
+
+def test_holes_that_cannot_close_are_refused_naming_the_fans():
+    with pytest.raises(FlatteningError, match=r"1 hole\(s\).*rim vertex.*2 pi \+ \d.*--method lscm"):
+        flatten(sphere_with_slot(1500), "mabf")
+
+
 # --- refusals and checks --------------------------------------------------------------
 
 

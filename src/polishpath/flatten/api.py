@@ -177,9 +177,14 @@ def flatten(
                 raise ParameterError(f"Unknown MABF weights {weights!r}.", "Use 'auto', 'uniform' or 'inverse_square'.")
             opt_tol = float(options.get("opt_tol", 1e-4))
             # "auto": uniform, inverse-square from the start again if a step drives a sliver to zero
-            angles, res, st = mabf_angles(vf, ff, weights=weights, tables=tables, min_angle=min_angle, tol=tol,
-                                          max_iter=int(options.get("max_iter", 50)), face_weight=fw, solver=solver,
-                                          opt_tol=opt_tol)
+            try:
+                angles, res, st = mabf_angles(vf, ff, weights=weights, tables=tables, min_angle=min_angle, tol=tol,
+                                              max_iter=int(options.get("max_iter", 50)), face_weight=fw, solver=solver,
+                                              opt_tol=opt_tol)
+            except FlatteningError as exc:
+                if n_virtual:
+                    raise _hole_fan_error(surface, vf, ff, tables, loops, exc.message) from exc
+                raise
             params.update(weights=st["weights"], solver=solver, linear=st.get("linear", "none"))
             if st.get("linear") == "pcg":
                 params["opt_tol"] = opt_tol  # the direct solve (filled holes) optimises to the end
@@ -194,6 +199,10 @@ def flatten(
         extra["converged"] = bool(st.get("converged", True))
         worst = max(st["max_triangle_residual"], st["max_vertex_residual"], st["max_wheel_residual"])
         if not np.isfinite(worst) or worst > 1e-3:
+            if n_virtual:
+                raise _hole_fan_error(surface, vf, ff, tables, loops,
+                                      f"The {method.upper()} angles did not converge (largest constraint residual "
+                                      f"{worst:.2g} after {st['iterations']} steps).")
             raise FlatteningError(
                 f"The {method.upper()} angles did not converge (largest constraint residual {worst:.2g} after {st['iterations']} steps).",
                 "Try weights='inverse_square', a larger min_angle, more max_iter, or the lscm method (--method lscm).",
@@ -211,7 +220,10 @@ def flatten(
         }
         params.update(layout=layout, holes_filled=int(len(loops) - 1))
         if n_virtual:
-            params["hole_weight"] = hole_weight
+            # the weight the solve ended with (MABF's "auto" stiffens fans that cannot hold their angles)
+            params["hole_weight"] = max(hole_weight, 1.0) if st.get("hole_fans_stiffened") else hole_weight
+            if st.get("hole_fans_stiffened"):
+                params["hole_fans_stiffened"] = True
     uv = normalize_uv(v, f, uv)
     if method == "lscm":
         angles = meshops.corner_angles(uv, f)
@@ -241,6 +253,25 @@ def flatten(
                 "less curved pieces, or pass check=False to inspect the result.",
             )
     return flat
+
+
+def _hole_fan_error(surface: Surface, vf, ff, tables, loops, what: str) -> FlatteningError:
+    """The error of an angle solve that failed on a mesh with holes: what the fans that
+    close the holes do to their rims (the usual cause), measured, and what to do."""
+    from .mabf import _corner_angles
+
+    rim = np.concatenate([lp for i, lp in enumerate(loops) if i != outer_loop_index(surface.vertices, loops)])
+    sums = np.bincount(tables.corner_vertex, weights=_corner_angles(vf, ff), minlength=len(vf))[rim]
+    excess = sums - 2.0 * np.pi  # 0 at a rim vertex whose fan lies flat beside its real faces
+    folded = int(np.count_nonzero(excess > 0.1))
+    return FlatteningError(
+        f"{what} {surface.name!r} has {len(loops) - 1} hole(s), which the solve closes with fans of virtual "
+        f"triangles around each hole's centroid; at {folded} rim vertex(es) those fans fold over the real faces "
+        f"(3D angle sums up to 2 pi + {max(float(excess.max()), 0.0):.2f} rad), a ragged or strongly curved rim "
+        f"that the angles cannot close around.",
+        "Fill the holes in the mesh (a mesh-repair tool) or cut it so they open onto the outer boundary, or use "
+        "--method lscm.",
+    )
 
 
 def boundary_region(flat: Flattening) -> Region:
