@@ -16,8 +16,10 @@ Times are the best of ``--repeat`` runs (default 3): the machine is shared, so
 figures are noisy; the ratio is measured in the same run. Then the targets of
 issue 15 item 6, met or missed and by how much.
 
-"The default install" is ``pip install polishpath``: scikit-sparse (the optional
-``[fast]`` extra) is hidden from the solver choice unless ``--with-sksparse``.
+"The default install" is ``pip install polishpath`` (QDLDL for the big systems):
+the optional CHOLMOD backends (scikit-sparse of the ``[fast]`` extra, cvxopt of
+the ``[cholmod]`` extra, which the test extras install, and cholespy) are hidden
+from the solver choice unless ``--with-extras``.
 libigl is a benchmark peer, not a dependency: without it the LSCM columns are
 skipped with the reason.
 """
@@ -98,14 +100,16 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--abf", action="store_true", help="also classic ABF (slow by design), up to --abf-max triangles")
     ap.add_argument("--abf-max", type=int, default=25000)
-    ap.add_argument("--with-sksparse", action="store_true",
-                    help="let the solver choice use scikit-sparse if installed (not the default install)")
+    ap.add_argument("--with-extras", action="store_true",
+                    help="let the solver choice use the optional CHOLMOD backends if installed (scikit-sparse, cvxopt, "
+                         "cholespy; not the default install)")
     ap.add_argument("--layouts", action="store_true", help="also compare the midpoint and least-squares layouts")
     args = ap.parse_args(argv)
 
-    if not args.with_sksparse:
+    if not args.with_extras:
         have = linalg._have
-        linalg._have = lambda m: False if m.startswith("sksparse") else have(m)  # the default install
+        optional = ("sksparse", "cvxopt", "cholespy")
+        linalg._have = lambda m: False if m.split(".")[0] in optional else have(m)  # the default install
     try:
         import igl  # noqa: F401
 

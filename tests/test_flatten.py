@@ -431,7 +431,7 @@ def test_mabf_pcg_matches_direct_solve(weights):
     assert st1["pcg_iterations"] > 0 and st1["factorizations"] == 2
 
 
-@pytest.mark.parametrize("solver", ["superlu", "auto"])
+@pytest.mark.parametrize("solver", ["superlu", "qdldl", "auto"])
 def test_mabf_pcg_backends_agree(solver):
     s = surface("saddle")
     ref, _, _ = mabf_angles(s.vertices, s.faces, linear="direct", solver="superlu", tol=1e-11)
@@ -507,6 +507,37 @@ def test_cvxopt_backend_reuses_one_ordering_for_several_matrices(monkeypatch):
             linalg.factor_spd((A - 1.0 * sp.eye(n * n)).tocsc(), "cvxopt")
     assert dict(cholmod.options) == before
     assert linalg.spd_backend("auto", n=linalg.SMALL_ROWS - 1) == "superlu"
+
+
+def test_qdldl_backend_is_the_plain_install_default_and_checks_its_pivots(monkeypatch):
+    """QDLDL (a core dependency): the default of "auto" without the CHOLMOD extras, two
+    matrices of one pattern solve like scipy, an indefinite or singular matrix raises."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from polishpath.flatten import linalg
+
+    have = linalg._have
+    monkeypatch.setattr(linalg, "_have", lambda m: m.split(".")[0] not in ("sksparse", "cvxopt", "cholespy") and have(m))
+    assert linalg.spd_backend("auto", n=linalg.SMALL_ROWS) == "qdldl"
+    assert linalg.spd_backend("auto", n=linalg.SMALL_ROWS - 1) == "superlu"  # small jobs keep their bytes
+    n = 50  # 2500 rows: above SMALL_ROWS
+    lap1 = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
+    A = (sp.kron(sp.eye(n), lap1) + sp.kron(lap1, sp.eye(n))).tocsc()
+    B = (A + sp.diags(np.linspace(0.1, 2.0, n * n))).tocsc()
+    b = np.random.default_rng(0).normal(size=n * n)
+    fz = linalg.SpdFactorizer(A, "auto")
+    assert fz.backend == "qdldl"
+    for M in (A, B, B.tocsr()):
+        x = fz.factor(M)(b)
+        assert np.abs(x - spla.spsolve(M.tocsc(), b)).max() < 1e-9 * np.abs(x).max()
+    with pytest.raises(FlatteningError, match="not positive definite"):
+        linalg.factor_spd((A - 1.0 * sp.eye(n * n)).tocsc(), "qdldl")
+    C = A.tolil()
+    C[3, :] = 0.0
+    C[:, 3] = 0.0
+    with pytest.raises(FlatteningError, match="singular"):
+        linalg.factor_spd(C.tocsc(), "qdldl")
 
 
 def test_half_edge_twins_pair_opposite_half_edges():

@@ -9,6 +9,12 @@ Backends, best first (``"auto"`` takes the first one installed):
   wheels for every platform, SuiteSparse bundled; opt-in because it is GPL-3). One AMD ordering per pattern, a cheap symbolic
   step per matrix with that ordering, supernodal numeric factorisations on big
   systems and simplicial ones below :data:`SUPERNODAL_ROWS` rows (see there).
+* ``"qdldl"`` - QDLDL (OSQP's simplicial LDL' with SuiteSparse's AMD; Apache-2.0,
+  wheels for every platform): a core dependency, so the default of a plain
+  ``pip install``. Against SuperLU on MABF's 1-ring matrices: factorisations
+  1.3-4x and single-vector solves 1.3-10x faster (face.obj, 25.8k rows: 0.2 s and
+  1.4 ms against 0.94 s and 14.5 ms). Its ``D`` is checked (LDL' does not stop at
+  a pivot <= 0).
 * ``"cholmod"`` - CHOLMOD through the small ``cholespy`` wheel (no reuse of the
   analysis; slower than the two above here).
 * ``"superlu"`` - scipy's SuperLU; always there.
@@ -28,7 +34,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import FlatteningError
 
-BACKENDS = ("auto", "sksparse", "cvxopt", "cholmod", "superlu")
+BACKENDS = ("auto", "sksparse", "cvxopt", "qdldl", "cholmod", "superlu")
 
 # cvxopt's CHOLMOD: supernodal numeric factorisations are 3-4x faster than simplicial
 # ones on these 1-ring matrices, but each supernodal solve (one right-hand side, many
@@ -55,7 +61,7 @@ def _have(module: str) -> bool:
 
 
 def spd_backend(backend: str = "auto", n: int | None = None) -> str:
-    """The backend :func:`factor_spd` will use: ``"sksparse"``, ``"cvxopt"``, ``"cholmod"`` or ``"superlu"``.
+    """The backend :func:`factor_spd` will use: ``"sksparse"``, ``"cvxopt"``, ``"qdldl"``, ``"cholmod"`` or ``"superlu"``.
 
     ``"auto"`` takes the first installed in that order, and ``"superlu"`` for
     systems of fewer than :data:`SMALL_ROWS` rows ``n``. An explicitly requested
@@ -71,6 +77,8 @@ def spd_backend(backend: str = "auto", n: int | None = None) -> str:
         return "sksparse"
     if backend in ("auto", "sksparse", "cvxopt") and _have("cvxopt.cholmod"):
         return "cvxopt"
+    if backend in ("auto", "sksparse", "cvxopt", "qdldl") and _have("qdldl"):
+        return "qdldl"
     if backend in ("auto", "sksparse", "cholmod") and _have("cholespy"):
         return "cholmod"
     if backend == "cholmod" and _have("sksparse.cholmod"):
@@ -92,7 +100,7 @@ def factor_spd(S: sp.spmatrix, backend: str = "auto") -> Callable[[np.ndarray], 
     ----------
     S : (n, n) sparse
         Symmetric positive definite (both triangles stored).
-    backend : {"auto", "sksparse", "cvxopt", "cholmod", "superlu"}
+    backend : {"auto", "sksparse", "cvxopt", "qdldl", "cholmod", "superlu"}
 
     Returns
     -------
@@ -106,7 +114,7 @@ def factor_spd(S: sp.spmatrix, backend: str = "auto") -> Callable[[np.ndarray], 
     """
     n = S.shape[0]
     which = spd_backend(backend, n)
-    if which in ("sksparse", "cvxopt"):
+    if which in ("sksparse", "cvxopt", "qdldl"):
         return SpdFactorizer(S, which).factor(S)
     if which == "cholmod":
         from cholespy import CholeskySolverD, MatrixType
@@ -151,7 +159,7 @@ class SpdFactorizer:
     ----------
     pattern : (n, n) sparse
         A matrix with the common pattern (both triangles stored).
-    backend : {"auto", "sksparse", "cholmod", "superlu"}
+    backend : {"auto", "sksparse", "cvxopt", "qdldl", "cholmod", "superlu"}
     ordering : {"amd", "metis", "nesdis"}
         Fill-reducing ordering (scikit-sparse only; cvxopt always uses AMD).
     """
@@ -172,6 +180,8 @@ class SpdFactorizer:
             self._lower = _CvxLower(pattern)
             self._perm = cvxopt.amd.order(self._lower.matrix(pattern))
             self._supernodal = 2 if self.n >= SUPERNODAL_ROWS else 0
+        elif self.backend == "qdldl":
+            self._upper = _Upper(pattern)
 
     def factor(self, S: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
         """``solve(b) -> S^-1 b`` for a matrix ``S`` with the constructor's pattern."""
@@ -185,6 +195,8 @@ class SpdFactorizer:
             return fac.solve_A
         if self.backend == "cvxopt":
             return self._factor_cvxopt(S)
+        if self.backend == "qdldl":
+            return self._factor_qdldl(S)
         if self.backend == "superlu":
             # SPD: no pivoting needed; symmetric mode with a minimum-degree ordering
             # of A + A^T (about 2x faster than COLAMD on these matrices)
@@ -197,6 +209,24 @@ class SpdFactorizer:
                 raise _singular(exc) from exc
             return lu.solve
         return factor_spd(S, self.backend)
+
+    def _factor_qdldl(self, S: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
+        import qdldl
+
+        # one solver per matrix (MABF keeps the factors of K and M at once); its AMD
+        # analysis costs a few per cent of the numeric factorisation here
+        try:
+            fac = qdldl.Solver(self._upper.matrix(S), upper=True)
+        except (RuntimeError, ValueError) as exc:
+            raise _singular(exc) from exc
+        d = fac.factors()[1]  # LDL' does not stop at a pivot <= 0
+        if not np.all(np.isfinite(d) & (d > 0)):
+            raise _singular(ValueError(f"{int(np.count_nonzero(~(d > 0)))} pivots <= 0"))
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            return fac.solve(np.ascontiguousarray(np.ravel(b), dtype=np.float64))
+
+        return solve
 
     def _factor_cvxopt(self, S: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
         import cvxopt
@@ -229,6 +259,31 @@ class SpdFactorizer:
             return np.asarray(x).ravel()
 
         return solve
+
+
+class _Upper:
+    """The upper triangle (CSC) of matrices with one pattern, the entries to keep found once."""
+
+    def __init__(self, pattern: sp.spmatrix):
+        C = sp.csc_matrix(pattern)
+        C.sort_indices()
+        n = C.shape[0]
+        col = np.repeat(np.arange(n), np.diff(C.indptr))
+        keep = C.indices <= col
+        self._keep = np.nonzero(keep)[0]
+        self._indices = C.indices[self._keep]
+        self._indptr = np.concatenate([[0], np.cumsum(np.bincount(col[keep], minlength=n))])
+        self._pattern = (C.indptr, C.indices)
+        self.n = n
+
+    def matrix(self, S: sp.spmatrix) -> sp.csc_matrix:
+        C = sp.csc_matrix(S)
+        if not C.has_sorted_indices:
+            C.sort_indices()
+        if C.nnz != len(self._pattern[1]) or not (np.array_equal(C.indptr, self._pattern[0])
+                                                  and np.array_equal(C.indices, self._pattern[1])):
+            return sp.triu(C, format="csc")  # another pattern (explicit zeros dropped)
+        return sp.csc_matrix((C.data[self._keep], self._indices, self._indptr), shape=(self.n, self.n))
 
 
 class _CvxLower:
