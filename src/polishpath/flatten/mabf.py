@@ -150,9 +150,10 @@ def mabf_angles(
         inverse-square from the start again as soon as a uniform step would drive an
         angle to zero (slivers); the second attempt reuses the first one's corner
         tables, 1-ring pattern and fill-reducing ordering. ``stats["weights"]`` says
-        which were used. With light faces (``face_weight`` < 1: hole fans) an
-        inverse-square step that would drive an angle to zero starts a third attempt
-        with those faces weighted 1 (``stats["hole_fans_stiffened"]``).
+        which were used. With light faces (``face_weight`` < 1: hole fans), a uniform
+        step that would drive a light corner to zero, or an inverse-square one that
+        would drive any corner to zero, starts an inverse-square attempt with those
+        faces weighted 1 (``stats["hole_fans_stiffened"]``).
     tables : CornerTables, optional
         :func:`topology.corner_tables` of ``(vertices, faces)`` when the caller has them.
     min_angle : float
@@ -240,9 +241,13 @@ def mabf_angles(
     if not stats.get("stopped_on_damping"):
         stats["weights"] = "uniform"
         return angles, res, stats
-    angles, res, stats = _mabf_solve(t, beta_raw, "inverse_square", stop_on_damping=light, **kw)
-    stats["weights"] = "inverse_square"
-    if light and stats.get("stopped_on_damping"):
+    # a light (fan) corner driven to zero: inverse-square weights with light fans fail
+    # the same way (the bunny), so go straight to the stiff fans below
+    fan = light and float(np.asarray(face_weight)[stats["damped_corner"] // 3]) < 1.0
+    if not fan:
+        angles, res, stats = _mabf_solve(t, beta_raw, "inverse_square", stop_on_damping=light, **kw)
+        stats["weights"] = "inverse_square"
+    if light and (fan or stats.get("stopped_on_damping")):
         # Hole fans too light to hold their angles (stanford-bunny.obj: ragged,
         # non-planar rims whose fan triangles fold over the real faces give rim
         # vertices 3D angle sums up to 2 pi + 1.7 rad): the cheapest way to close such
@@ -374,6 +379,11 @@ def _take_step(alpha: np.ndarray, new: np.ndarray, min_angle: float, stop_on_dam
     delta = new - alpha
     scale = _damped(alpha, delta, min_angle)
     if scale < 1.0:
+        if "damped_corner" not in stats:  # the corner that limited the first damped step
+            floor = 0.25 * min_angle
+            with np.errstate(divide="ignore", invalid="ignore"):
+                room = np.where(delta < 0, (alpha - floor) / -delta, np.where(delta > 0, (np.pi - floor - alpha) / delta, np.inf))
+            stats["damped_corner"] = int(np.argmin(room))
         stats["damped_steps"] = stats.get("damped_steps", 0) + 1
         if stop_on_damping:
             stats["stopped_on_damping"] = True
