@@ -67,6 +67,41 @@ CHECK_FRACTIONS = np.array([0.25, 0.5, 0.75])
 _TWO_PI = 2.0 * math.pi
 
 
+def _atan_polynomial(terms: int = 9) -> tuple[np.ndarray, float]:
+    """Coefficients of atan(t) ~ t * sum_k c_k t^(2k) on [0, 1] (least squares on a dense grid) and twice the
+    largest error measured there, rad: the samples' angles on an arc need no libm atan2 per point."""
+    t = np.linspace(0.0, 1.0, 100001)
+    A = np.column_stack([t ** (2 * k + 1) for k in range(terms)])
+    c = np.linalg.lstsq(A, np.arctan(t), rcond=None)[0]
+    return c, 2.0 * float(np.abs(A @ c - np.arctan(t)).max())
+
+
+#: the polynomial of :func:`_fast_atan2` and its error bound (rad, ~4e-8)
+_ATAN_C, ATAN_ERR = _atan_polynomial()
+_AC = tuple(float(v) for v in _ATAN_C)
+
+
+@numba.njit(cache=True)
+def _fast_atan2(y, x):  # pragma: no cover - numba
+    """atan2(y, x) to within :data:`ATAN_ERR` rad: octant reduction and an odd polynomial."""
+    ax = abs(x)
+    ay = abs(y)
+    hi = max(ax, ay)
+    if hi == 0.0:
+        return 0.0
+    a = min(ax, ay) / hi
+    q = a * a
+    r = _AC[8]
+    for k in range(7, -1, -1):
+        r = r * q + _AC[k]
+    r *= a
+    if ay > ax:
+        r = 0.5 * math.pi - r
+    if x < 0.0:
+        r = math.pi - r
+    return -r if y < 0.0 else r
+
+
 # Every per-point quantity of a piece's buffer lives in one float array F (n, NCOL) and one bool array B
 # (n, 3): a compiled function taking two arrays keeps its reference counting out of the hot loops.
 #: F columns: the driven point (P), the same rounded as written (W), planned time, curve parameter, the
@@ -224,7 +259,7 @@ def _helix_dist(qx, qy, qz, ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c):  # pr
     angle's fraction of the arc; beyond the arc's ends: the distance to the end point."""
     vx = qx - ox
     vy = qy - oy
-    phi = math.atan2(sgn * (vsx * vy - vsy * vx), vsx * vx + vsy * vy)
+    phi = _fast_atan2(sgn * (vsx * vy - vsy * vx), vsx * vx + vsy * vy)
     if phi < 0.0 and phi + _TWO_PI <= D:
         phi += _TWO_PI
     lam = phi / D
@@ -234,7 +269,8 @@ def _helix_dist(qx, qy, qz, ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c):  # pr
         return math.sqrt(e0 * e0 + e1 * e1 + e2 * e2), (0.0 if lam < 0.0 else 1.0)
     dr = math.sqrt(vx * vx + vy * vy) - R
     dzq = qz - (z0 + lam * dz)
-    return math.sqrt(dr * dr + dzq * dzq), lam
+    # the angle is known to ATAN_ERR: the helix's z at it to |dz| ATAN_ERR / D (added: still a bound)
+    return math.sqrt(dr * dr + dzq * dzq) + abs(dz) * ATAN_ERR / D, lam
 
 
 @numba.njit(cache=True)
@@ -358,7 +394,7 @@ def _arc_fits(F, B, s, c, tol, e_s, res, rounding):  # pragma: no cover - numba
                                          F, s, c)
             if d_next > tol:
                 return 0, LINE, 0.0, 0.0
-        sag = R * (1.0 - math.cos(0.5 * abs(l_next - l_prev) * D))
+        sag = R * (1.0 - math.cos(0.5 * abs(l_next - l_prev) * D)) + R * ATAN_ERR
         if not (_bounded(B, i) and e_s + max(d_prev, d_next) + sag <= tol):
             if not B[i, MDONE]:
                 return -(i + 1), LINE, 0.0, 0.0
@@ -373,7 +409,8 @@ def _arc_fits(F, B, s, c, tol, e_s, res, rounding):  # pragma: no cover - numba
             by = F[i, 1] + f * (F[i + 1, 1] - F[i, 1])
             bz = F[i, 2] + f * (F[i + 1, 2] - F[i, 2])
             _, lam = _helix_dist(bx, by, bz, ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c)
-            lam = _helix_nearest(bx, by, bz, ox, oy, R, sgn, D, math.atan2(vsy, vsx), z0, dz, lam)
+            if dz != 0.0:  # flat: the same-angle point is the nearest
+                lam = _helix_nearest(bx, by, bz, ox, oy, R, sgn, D, math.atan2(vsy, vsx), z0, dz, lam)
             if abs(F[s, TT] + lam * (F[c, TT] - F[s, TT]) - F[i, BTIME]) > F[i, BLIM]:
                 return 0, LINE, 0.0, 0.0
         d_prev = d_next
