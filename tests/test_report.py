@@ -387,7 +387,7 @@ def test_every_figure_of_a_large_path_is_decimated_and_the_page_says_so(tmp_path
     run = load_run(d)
     monkeypatch.setattr(figures, "MAX_PATH_POINTS_PNG", 100)
     monkeypatch.setattr(figures, "MAX_PATH_POINTS_PNG_3D", 50)
-    monkeypatch.setattr(figures, "FEED_BINS", 10)
+    monkeypatch.setattr("polishpath.report.digest.FEED_BINS", 10)
     planar = figures.fig_planar_path(run)
     assert "100 of 301 dwell points" in figures.display_note(planar)
     assert len(planar.axes[0].collections[0].get_segments()) <= 100

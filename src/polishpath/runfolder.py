@@ -58,6 +58,7 @@ ARRAY_KEYS = (
     "xyz", "normals", "dwell_weight", "face_ids", "bary",  # path on the part
     "samples", "sample_params", "feed_mm_min", "dwell_params", "dwell_times",  # tool path
     "knots", "control_points", "curve_weights", "curve_degree",
+    "display_sample_index", "display_samples", "feed_bins", "feed_envelope",  # what the report draws of the samples
 )
 
 #: arrays of a figuring run (``--error-map``), on the analysis grid ``figuring_grid`` = (x0, y0, pitch) mm

@@ -11,7 +11,7 @@ import dataclasses
 import datetime
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Iterator
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from ..config import JobConfig
 from ..fileio import atomic_open, jsonable
 from ..provenance import machine_info
 from ..types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
+
+if TYPE_CHECKING:
+    from ..export import SampleChunk
 
 
 @dataclass(frozen=True)
@@ -80,7 +83,7 @@ class Job:
             "map": {"stats": self.surface_path.stats, "provenance": self.surface_path.provenance.to_dict()},
             "smooth": {
                 "stats": self.tool_path.stats,
-                "samples": int(len(self.tool_path.samples)),
+                "samples": self.n_samples,
                 "period_ms": self.tool_path.period_ms,
                 "provenance": self.tool_path.provenance.to_dict(),
             },
@@ -131,51 +134,54 @@ class Job:
         from .. import export
         from ..fileio import staged_folder
         from ..flatten import save_obj
+        from ..report.digest import SampleDigest
         from ..runfolder import estimate_run_bytes, is_run_folder, write_run
 
         target = Path(out_dir)
         with_report = report if report is not None else self.config.report
-        need = estimate_run_bytes(self.planar.n_points, len(self.tool_path.samples), self.surface.n_vertices,
+        n_samples = self.n_samples
+        need = estimate_run_bytes(self.planar.n_points, n_samples, self.surface.n_vertices,
                                   self.surface.n_faces, report=with_report)
         written: dict[str, Path] = {}
         header = self.gcode_header()
         with staged_folder(target, is_run_folder, need_bytes=need, kind="polishpath run folder") as out:
             with progress.stage("writing machine files", self.timings, "write"):
                 cfg = self.config
+                # ONE pass over the samples (held, or regenerated chunk by chunk): the post's file, toolpath.xyz
+                # and the report's digest of them (run.npz) all take the same chunks
+                digest = SampleDigest(n_samples)
                 info = export.write_program(self.tool_path, out, post=post_name(cfg),
                                             settings=export.job_post_settings(cfg), mode=cfg.gcode,
-                                            tool_radius=cfg.tool_radius, header=header, surface=self.surface)
+                                            tool_radius=cfg.tool_radius, header=header, surface=self.surface,
+                                            chunks=digest.observe(self.sample_chunks()), xyz=True)
+                info.pop("xyz_path", None)
                 if info.get("path"):  # the summary names the file where it will be, not in the staging folder
                     info["path"] = str(target / Path(info["path"]).relative_to(out))
                 self.program.clear()  # the record of what the post wrote fills as the files are written (like timings)
                 self.program.update(info)
                 written["program"] = out / Path(self.program["path"]).relative_to(target)
-                n_samples = len(self.tool_path.samples)
+                written["toolpath_xyz"] = out / "toolpath.xyz"
+                if self.program["file"] == "toolpath.nc":
+                    written["gcode"] = out / "toolpath.nc"
 
                 def done(k: int, name: str) -> None:  # name: what was just written (for a reader of the code)
-                    progress.update(k, 5, f"outputs of {n_samples:,} samples")
+                    progress.update(k, 4, f"outputs of {n_samples:,} samples")
 
-                done(1, self.program["file"])
+                done(1, f"{self.program['file']}, toolpath.xyz")
                 if self.program["file"] != "path.csv":
                     export.write_path_csv(self.tool_path, out / "path.csv")
                 written["path_csv"] = out / "path.csv"
                 done(2, "path.csv")
-                if self.program["file"] != "toolpath.xyz":
-                    export.write_xyz(self.tool_path, out / "toolpath.xyz")
-                written["toolpath_xyz"] = out / "toolpath.xyz"
-                done(3, "toolpath.xyz")
-                if self.program["file"] == "toolpath.nc":
-                    written["gcode"] = out / "toolpath.nc"
                 with atomic_open(out / "flat.obj", "w") as fh:
                     save_obj(self.flattening, fh)
                 written["flat_obj"] = out / "flat.obj"
-                done(4, "flat.obj")
+                done(3, "flat.obj")
                 written.update(write_run(out, surface=self.surface, flattening=self.flattening, region=self.region,
                                          planar=self.planar, surface_path=self.surface_path,
                                          tool_path=self.tool_path, summary=self.summary(),
                                          config=self._job_config_with_seed().to_dict(),
-                                         extra_arrays=self._figuring_arrays()))
-                done(5, "run.npz, summary.json, job.toml")
+                                         extra_arrays={**digest.arrays(), **self._figuring_arrays()}))
+                done(4, "run.npz, summary.json, job.toml")
             if with_report:
                 from ..report import write_report
                 from ..report.figures import FIGURES
@@ -184,6 +190,20 @@ class Job:
                     written.update(write_report(out, shown_as=target))
                     progress.update(len(FIGURES), len(FIGURES), "figures")  # it counts those begun
         return {k: target / Path(v).relative_to(out) for k, v in written.items()}
+
+    @property
+    def n_samples(self) -> int:
+        """Machine samples of the path (held in ``tool_path.samples``, or counted by the smoothing stage when streamed)."""
+        m = len(self.tool_path.samples)
+        return m if m else int(self.tool_path.stats.get("n_samples", 0))
+
+    def sample_chunks(self, size: int | None = None) -> Iterator[SampleChunk]:
+        """The machine samples in path order as :class:`~polishpath.types.SampleChunk` s: cut from the held
+        arrays, or regenerated from the curve and its schedule when the job streamed them."""
+        from ..export import sample_chunks
+
+        kw = {} if size is None else {"size": size}
+        return sample_chunks(self.tool_path, **kw)
 
     def _figuring_arrays(self) -> dict[str, Any]:
         """The figuring maps for ``run.npz`` (runfolder.FIGURING_ARRAY_KEYS); empty without figuring."""

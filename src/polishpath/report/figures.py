@@ -21,6 +21,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..pathops import DIRECTION_NAMES, direction_counts, piece_index, step_lengths, turn_angles_deg
+from .digest import FEED_BINS, run_digest  # noqa: F401  (FEED_BINS: the display limits, as before)
 from .rundata import RunData, angle_error_deg, area_distortion, cluster_mesh, decimate_indices
 
 #: display limits (the files keep every point)
@@ -28,7 +29,6 @@ MAX_PATH_POINTS_PNG = 20_000
 MAX_PATH_POINTS_PNG_3D = 20_000
 MAX_FACES_PNG_3D = 6_000
 MAX_FACES_PNG_2D = 400_000
-FEED_BINS = 2000
 DPI = 130
 
 
@@ -313,42 +313,42 @@ def fig_turn_angles(run: RunData):
 
 
 def fig_feed_rate(run: RunData):
-    """Commanded feed along the interpolated path against machine time (min/max envelope when dense)."""
-    feed = run.get("feed_mm_min")
-    if feed is None:
+    """Commanded feed along the interpolated path against machine time (min/max/mean envelope when dense).
+
+    Drawn from the run's sample digest (:mod:`polishpath.report.digest`: at most
+    :data:`FEED_BINS` bins, stored in ``run.npz`` or made from a format-1 run's samples).
+    """
+    dg = run_digest(run)
+    if dg is None:
         return _missing("feed_mm_min")
+    edges, env = dg["feed_bins"], dg["feed_envelope"]
+    n = int(edges[-1])
+    if n == 0:
+        return "not drawn: the path has no machine samples"
     period = run.section("smooth").get("period_ms")
     if not (isinstance(period, (int, float)) and period > 0):
         period = run.section("config").get("period_ms")
     fig = _figure(7.2, 3.6)
     ax = fig.add_subplot()
-    n = len(feed)
-    if isinstance(period, (int, float)) and period > 0:
-        x_full = np.arange(n) * float(period) / 1000.0
-        xlabel = "machine time (s)"
-    else:
-        x_full = np.arange(n, dtype=float)
-        xlabel = "interpolation sample"
-    nb = FEED_BINS
+    timed = isinstance(period, (int, float)) and period > 0
+    xs = edges[:-1] * (float(period) / 1000.0 if timed else 1.0)
+    xlabel = "machine time (s)" if timed else "interpolation sample"
+    lo, hi, mid = env[:, 0], env[:, 1], env[:, 2]
     note = None
-    if n > 2 * nb:
-        note = (f"Drawn: the min, max and mean of {nb:,} bins of about {n // nb:,} samples each "
+    if len(env) < n:
+        note = (f"Drawn: the min, max and mean of {len(env):,} bins of about {n // len(env):,} samples each "
                 f"({n:,} samples in all; display only: the machine files hold every sample).")
-        edges = np.linspace(0, n, nb + 1).astype(np.int64)
-        lo = np.minimum.reduceat(feed, edges[:-1])
-        hi = np.maximum.reduceat(feed, edges[:-1])
-        mid = np.add.reduceat(feed, edges[:-1]) / np.diff(edges)
-        xs = x_full[edges[:-1]]
         ax.fill_between(xs, lo, hi, color="tab:blue", alpha=0.3, lw=0, label="min..max per bin")
         ax.plot(xs, mid, color="tab:blue", lw=0.8, label="mean per bin")
         ax.legend(fontsize=8)
     else:
-        ax.plot(x_full, feed, color="tab:blue", lw=0.8)
+        ax.plot(xs, lo, color="tab:blue", lw=0.8)
     ax.set_xlabel(xlabel)
     ax.set_ylabel("feed (mm/min)")
-    m = float(np.mean(feed))
-    fl = (float(np.max(feed) - np.min(feed)) / m * 100) if m else float("nan")
-    ax.set_title(f"Feed rate: mean {m:.4g} mm/min, range {np.min(feed):.4g}..{np.max(feed):.4g} "
+    m = float(np.sum(mid * np.diff(edges)) / n)
+    fmin, fmax = float(lo.min()), float(hi.max())
+    fl = (fmax - fmin) / m * 100 if m else float("nan")
+    ax.set_title(f"Feed rate: mean {m:.4g} mm/min, range {fmin:.4g}..{fmax:.4g} "
                  f"({fl:.3g}% of mean), {n:,} samples", fontsize=9)
     return _say(fig, note)
 

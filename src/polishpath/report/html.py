@@ -22,6 +22,7 @@ import numpy as np
 
 from ..fileio import atomic_open
 from ..provenance import machine_info
+from .digest import run_digest
 from .rundata import RunData, load_run, step_lengths
 from .simulation import simulation_section
 
@@ -269,12 +270,17 @@ def _overview(run: RunData) -> str:
         if s:
             inside = np.mean((st >= s * (1 - 1e-6)) & (st <= math.sqrt(2) * s * (1 + 1e-6)))
             cards.append(_card(f"steps in [s, √2 s], s = {s:g} mm", f"{100 * inside:.1f}%"))
-    feed = run.get("feed_mm_min")
-    if feed is not None and feed.ndim == 1:
-        cards.append(_card("feed mean (min..max)", f"{feed.mean():.4g} ({feed.min():.4g}..{feed.max():.4g}) mm/min"))
+    try:
+        dg = run_digest(run)
+    except ValueError:  # malformed arrays: the feed figure says so; the overview leaves the cards out
+        dg = None
+    if dg is not None and int(dg["feed_bins"][-1]) > 0:
+        env, n = dg["feed_envelope"], int(dg["feed_bins"][-1])
+        mean = float(np.sum(env[:, 2] * np.diff(dg["feed_bins"])) / n)
+        cards.append(_card("feed mean (min..max)", f"{mean:.4g} ({env[:, 0].min():.4g}..{env[:, 1].max():.4g}) mm/min"))
         period = _num(run.section("smooth").get("period_ms"))
         if period:
-            t = len(feed) * period / 1000.0
+            t = n * period / 1000.0
             cards.append(_card("machine time", f"{t / 60:.1f} min" if t >= 120 else f"{t:.1f} s"))
     tot = run.summary.get("timings_s")
     if isinstance(tot, dict):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..pathops import piece_index
+from .digest import run_digest
 from .rundata import RunData, cluster_mesh, decimate_indices
 
 #: display limits of the interactive views (the files keep every point)
@@ -104,13 +105,13 @@ def plot_surface_3d(run: RunData):
         name="dwell-point path (path order)", legendgroup="dwell", showlegend=True, hoverinfo="skip",
     ))
     has_samples = False
-    smp = run.get("samples")
-    if smp is not None:
-        sidx = decimate_indices(len(smp), MAX_POINTS_3D)
-        note = _decimation_note("interpolated samples", len(sidx), len(smp))
+    dg = run_digest(run)  # at most digest.MAX_SAMPLES_SHOWN samples, stored by the job (or made from old arrays)
+    if dg is not None and len(dg["display_samples"]):
+        shown, total = dg["display_samples"], int(dg["feed_bins"][-1])
+        s = shown[decimate_indices(len(shown), MAX_POINTS_3D)]
+        note = _decimation_note("interpolated samples", len(s), total)
         if note:
             notes.append(note)
-        s = smp[sidx]
         traces.append(go.Scatter3d(
             x=_f32(s[:, 0]), y=_f32(s[:, 1]), z=_f32(s[:, 2]), mode="lines",
             line=dict(color="#d62728", width=3), name="smoothed curve (NURBS samples)", visible=False,
