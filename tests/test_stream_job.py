@@ -66,3 +66,87 @@ def test_a_digest_short_of_its_samples_is_refused():
         d.arrays()
     with pytest.raises(ValueError, match="more came"):
         d.add(SimpleNamespace(samples=np.zeros((7, 3)), feed_mm_min=np.ones(7)))
+
+
+# --- held or streamed: the job's choice ---------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_job():
+    import polishpath
+
+    return polishpath.run(surface="hemisphere:R=12,triangles=700", spacing=1.5, seed=5, report=False)
+
+
+def test_a_small_job_holds_its_samples_and_says_why(small_job):
+    from polishpath import resources
+
+    m = small_job.samples_mode
+    assert m["mode"] == "memory" and m["requested"] == "auto" and "held in memory" in m["reason"]
+    # the estimate the choice is made from is close to the samples the path got
+    assert m["expected_samples"] == pytest.approx(small_job.n_samples, rel=0.3)
+    assert m["expected_samples"] < resources.STREAM_ABOVE_SAMPLES
+    s = small_job.summary()["smooth"]
+    assert s["samples_mode"] == "memory" and s["samples"] == len(small_job.tool_path.samples) > 0
+
+
+def test_auto_streams_above_the_threshold_or_the_budget(small_job, monkeypatch):
+    from polishpath import resources
+    from polishpath.config import parse_job
+    from polishpath.pipeline import choose_samples_mode
+
+    cfg = parse_job(surface="hemisphere", samples="auto")
+    est = resources.Estimate(700, 500.0, 1e4, 400e6)
+    kw = {}
+    monkeypatch.setenv("POLISHPATH_MAX_MEMORY", "64G")
+    m = choose_samples_mode(cfg, "", small_job.surface_path, kw, est)
+    assert m["mode"] == "memory"
+    rest = est.peak_bytes - resources.BYTES_PER_SAMPLE * est.samples
+    tight = int(rest + 0.5 * resources.BYTES_PER_SAMPLE * m["expected_samples"])
+    monkeypatch.setattr(resources, "STREAM_ABOVE_SAMPLES", 100.0)
+    m = choose_samples_mode(cfg, "", small_job.surface_path, kw, est)
+    assert m["mode"] == "stream" and "STREAM_ABOVE_SAMPLES" in m["reason"]
+    # what the job needs held stays held, whatever the count
+    m = choose_samples_mode(cfg, "the feed schedule needs them", small_job.surface_path, kw, est)
+    assert m["mode"] == "memory" and "the feed schedule needs them" in m["reason"]
+    monkeypatch.setattr(resources, "STREAM_ABOVE_SAMPLES", 1e12)
+    monkeypatch.setenv("POLISHPATH_MAX_MEMORY", str(tight))  # the rest of the job fits, the samples held would not
+    m = choose_samples_mode(cfg, "", small_job.surface_path, kw, est)
+    assert m["mode"] == "stream" and "more than this job may use" in m["reason"]
+    for asked in ("memory", "stream"):
+        m = choose_samples_mode(parse_job(surface="hemisphere", samples=asked), "", small_job.surface_path, kw, est)
+        assert m["mode"] == asked and "as asked" in m["reason"]
+
+
+@pytest.mark.parametrize("extra, says", [
+    (["--machine", "generic-3axis"], "feed schedule of --machine"),
+    (["--error-map", "ERR"], "figuring residual of --error-map"),
+])
+def test_what_needs_the_samples_held_refuses_to_stream(tmp_path, extra, says):
+    import subprocess
+    import sys
+
+    err = tmp_path / "err.toml"
+    err.write_text("[zernike]\nradius_mm = 11.0\nunits = \"nm\"\ncoefficients = { 4 = 20.0 }\n")
+    extra = [str(err) if x == "ERR" else x for x in extra]
+    proc = subprocess.run([sys.executable, "-m", "polishpath", "plan", "hemisphere:R=12,triangles=700",
+                           "--spacing", "1.5", "--seed", "1", "--samples", "stream", *extra, "-o", str(tmp_path / "o"),
+                           "--quiet"], capture_output=True, text=True)
+    assert proc.returncode == 2, proc.stderr
+    assert says in proc.stderr and "--samples memory" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_memory_check_counts_streamed_samples_as_bounded(monkeypatch):
+    from polishpath import resources
+    from polishpath.errors import ResourceError
+    from polishpath.surfaces import load_surface
+
+    surf = load_surface("hemisphere:R=100,triangles=2000")
+    kw = dict(feed_mm_min=600.0, period_ms=4.0, max_points=10**8)
+    est = resources.check_job(surf, 0.5, **kw, samples="stream")  # no budget set: fits on this machine
+    monkeypatch.setenv("POLISHPATH_MAX_MEMORY", str(int(est.peak_bytes * 1.05)))
+    resources.check_job(surf, 0.5, **kw, samples="stream")
+    resources.check_job(surf, 0.5, **kw, samples="auto")
+    with pytest.raises(ResourceError, match="POLISHPATH_MAX_MEMORY"):
+        resources.check_job(surf, 0.5, **kw, samples="memory")

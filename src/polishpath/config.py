@@ -36,6 +36,7 @@ from .defaults import (
     INTEGRATOR_NAMES,
 )
 from .errors import ParameterError, SpecError
+from .resources import STREAM_ABOVE_SAMPLES
 
 
 def option(default: Any, *flags: str, help: str, positive: bool = False, nonnegative: bool = False,
@@ -165,6 +166,14 @@ class JobConfig:
         or an edge length in mm (as text) to refine every longer edge to.
     max_points : int
         Refuse to plan more dwell points than this.
+    samples : {"auto", "memory", "stream"}
+        The machine samples: ``memory`` holds them all (the machine feed
+        schedule of ``machine`` and the figuring residual of ``error_map`` need
+        that); ``stream`` keeps only the curve and its schedule and regenerates
+        the samples chunk by chunk for the writers (memory bounded by the chunk
+        size, not the path); ``auto`` streams when the expected sample count
+        exceeds :data:`polishpath.resources.STREAM_ABOVE_SAMPLES` or holding them
+        would not fit the memory budget, unless ``machine`` or ``error_map`` needs them held.
     max_oversampling : float
         Refuse when honouring the spacing on the part needs more than this many
         times the dwell points a uniform grid of that spacing would put on the
@@ -256,6 +265,12 @@ class JobConfig:
                               "(default: only when slivers cover > 5 % of the area), 'off', or an edge length in mm.")
     max_points: int = option(5_000_000, "--max-points", help="Refuse to plan more dwell points than this.",
                              positive=True)
+    samples: str = option(
+        "auto", "--samples", choices=("auto", "memory", "stream"),
+        help="Machine samples held in memory ('memory') or regenerated chunk by chunk for the writers ('stream': "
+             "memory bounded whatever the path's length); 'auto' (default) streams above "
+             f"{STREAM_ABOVE_SAMPLES / 1e6:g} M expected samples or when holding them would not fit; --machine and "
+             "--error-map need them held.")
     max_oversampling: float = option(
         16.0, "--max-oversampling", positive=True,
         help="Refuse when honouring the spacing on the part needs more than this many times the dwell points of a "

@@ -43,6 +43,12 @@ DWELL_POINTS_PER_CELL = 2.0
 #: machine path length per dwell point, in spacings (steps are in [s, sqrt(2) s])
 PATH_PER_DWELL_POINT = 1.3
 DEFAULT_SHARE = 0.8
+#: ``--samples auto`` streams the machine samples above this many expected (about 2.6 x the 15 M samples
+#: of a 10^6-point path at the default feed and period; held, they cost about 0.2 KB each, 8 GB at this count)
+STREAM_ABOVE_SAMPLES = 40e6
+#: peak memory of a streamed job's samples, bytes: the chunks in flight and the writers' buffers, whatever
+#: the path's length (measured: see ``BYTES_PER_SAMPLE``)
+STREAMED_SAMPLES_BYTES = 300e6
 
 _SIZE = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([kKmMgGtT]?)[iI]?[bB]?\s*$")
 _FACTOR = {"": 1.0, "k": 1e3, "m": 1e6, "g": 1e9, "t": 1e12}
@@ -201,6 +207,50 @@ def estimate(triangles: int, *, area_mm2: float = 0.0, spacing_mm: float | None 
     return Estimate(n, dwell, samples, peak)
 
 
+def expected_samples(path_length_mm: float, *, feed_mm_min: float, period_ms: float,
+                     total_time_s: float | None = None) -> float:
+    """Machine samples a path is expected to have, before it is smoothed.
+
+    Parameters
+    ----------
+    path_length_mm : float
+        Length of the path through its dwell points, mm (the steps within pieces).
+    feed_mm_min, period_ms : float
+        Feed (mm/min) and interpolation period (ms).
+    total_time_s : float, optional
+        The dwell times' sum, s, when they are given or solved (the path then lasts that long).
+
+    Returns
+    -------
+    float
+        One sample per period over the path's time: ``max(length / feed, total time) / period``
+        (the curvature slow-downs at turns add some 10-20 % on a pseudo-random path).
+    """
+    t = path_length_mm / (feed_mm_min / 60.0) if feed_mm_min > 0 else math.inf
+    if total_time_s is not None:
+        t = max(t, float(total_time_s))
+    return t / (period_ms / 1000.0) if period_ms > 0 else math.inf
+
+
+def stream_samples(expected: float, est: Estimate | None = None) -> tuple[bool, str]:
+    """Whether ``--samples auto`` streams a path of ``expected`` machine samples, and why (one sentence).
+
+    It streams above :data:`STREAM_ABOVE_SAMPLES`, and when holding them
+    (:data:`BYTES_PER_SAMPLE` each, on top of the rest of the job's estimate
+    ``est``) would exceed the memory budget.
+    """
+    held = BYTES_PER_SAMPLE * expected
+    rest = (est.peak_bytes - BYTES_PER_SAMPLE * est.samples) if est is not None else BASE_BYTES
+    budget, source = memory_budget()
+    if expected > STREAM_ABOVE_SAMPLES:
+        return True, (f"about {expected:.3g} machine samples expected, more than {STREAM_ABOVE_SAMPLES:.3g} "
+                      "(resources.STREAM_ABOVE_SAMPLES): streamed")
+    if rest + held > budget:
+        return True, (f"holding about {expected:.3g} machine samples needs about {format_bytes(rest + held)}, more "
+                      f"than this job may use ({format_bytes(budget)}: {source}): streamed")
+    return False, (f"about {expected:.3g} machine samples expected, at most {STREAM_ABOVE_SAMPLES:.3g}: held in memory")
+
+
 class _no_overflow:
     """Turn float overflow into infinity (huge estimates are still estimates)."""
 
@@ -263,7 +313,8 @@ SMALL_PART_MM = 5.0
 LARGE_PART_MM = 1e5
 
 
-def check_job(surface, spacing_mm: float, *, feed_mm_min: float, period_ms: float, max_points: int) -> Estimate:
+def check_job(surface, spacing_mm: float, *, feed_mm_min: float, period_ms: float, max_points: int,
+              samples: str = "memory") -> Estimate:
     """Refuse a planning job that cannot fit, from the surface and the options alone (before flattening).
 
     Parameters
@@ -276,6 +327,11 @@ def check_job(surface, spacing_mm: float, *, feed_mm_min: float, period_ms: floa
         Machine feed (mm/min) and interpolation period (ms).
     max_points : int
         The job's dwell-point limit.
+    samples : {"memory", "stream", "auto"}
+        How the job will keep its machine samples (``JobConfig.samples``, or
+        ``memory`` where the job needs them held): a streamed job's samples cost
+        :data:`STREAMED_SAMPLES_BYTES` whatever their count, and ``auto`` streams
+        what would not fit held.
 
     Raises
     ------
@@ -307,5 +363,10 @@ def check_job(surface, spacing_mm: float, *, feed_mm_min: float, period_ms: floa
             f"spacing {spacing_mm:g} mm on {surface.name} ({area:.4g} mm^2) needs at least {uniform:.3g} dwell points, "
             f"more than max_points = {max_points:,}.",
             way_out.strip() + " Raise max_points in a --config file to go on anyway.")
+    if samples != "memory":  # streamed (or auto, which streams what would not fit held): the chunks only
+        est = Estimate(est.triangles, est.dwell_points, est.samples,
+                       est.peak_bytes - BYTES_PER_SAMPLE * est.samples + STREAMED_SAMPLES_BYTES)
+    elif est.samples > STREAM_ABOVE_SAMPLES:
+        way_out += " Or let the samples stream (--samples stream; --machine and --error-map need them held)."
     check(est, f"spacing {spacing_mm:g} mm on {surface.name} ({area:.4g} mm^2)", way_out.strip())
     return est

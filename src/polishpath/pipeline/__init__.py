@@ -31,7 +31,8 @@ from .surfaceplan import AUTO_MARGIN_FACTOR, SurfacePlan, plan_on_surface
 from .surfaceplan import _honour_surface_spacing  # noqa: F401  (tests/test_pipeline_wiring.py)
 
 __all__ = ["run", "Job", "JobConfig", "SurfacePlan", "plan_on_surface", "rebuild_report", "check_machine_output",
-           "figure_for_job", "build_tif", "machine_profile", "post_name", "AUTO_MARGIN_FACTOR", "BOUNDARY_REPLANS"]
+           "figure_for_job", "build_tif", "machine_profile", "post_name", "choose_samples_mode", "samples_held_for",
+           "AUTO_MARGIN_FACTOR", "BOUNDARY_REPLANS"]
 
 #: re-plans with a wider margin when the machine path still leaves the part by more than the tolerance
 BOUNDARY_REPLANS = 3
@@ -70,12 +71,17 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         raise ParameterError("--tif, --error-units and [error_map] options need --error-map (the measured error to remove).")
     if cfg.error_map and cfg.dwell_times:
         raise ParameterError("give --error-map (times solved from the error) or --dwell-times (times given), not both.")
+    held_for = samples_held_for(cfg, machine)
+    if cfg.samples == "stream" and held_for:
+        raise ParameterError(f"--samples stream cannot be used here: {held_for}.",
+                             "Use --samples memory (or auto, the default), or leave that option out.")
     timings: dict[str, float] = {}
 
     with progress.stage("reading surface", timings, "surface"):
         surface = load_surface(cfg.surface, units=cfg.units, scale=cfg.scale, component=cfg.component)
-    resources.check_job(surface, cfg.spacing, feed_mm_min=cfg.feed_mm_min or DEFAULT_FEED_MM_MIN,
-                        period_ms=cfg.period_ms or DEFAULT_PERIOD_MS, max_points=cfg.max_points)
+    est = resources.check_job(surface, cfg.spacing, feed_mm_min=cfg.feed_mm_min or DEFAULT_FEED_MM_MIN,
+                              period_ms=cfg.period_ms or DEFAULT_PERIOD_MS, max_points=cfg.max_points,
+                              samples="memory" if held_for else cfg.samples)
     with progress.stage(f"flattening ({cfg.method})", timings, "flatten"):
         surface = fit_for_flattening(surface, cfg.remesh)
         flat = flatten(surface, cfg.method)
@@ -87,6 +93,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     if machine is not None:
         smooth_kw.setdefault("period_ms", machine.period_ms)
     margin = cfg.margin  # None: automatic, widened below until the machine path stays on the part
+    samples_mode: dict[str, Any] = {}
     for replan in range(BOUNDARY_REPLANS + 1):
         with progress.stage(f"planning {cfg.pattern} path", timings, "plan"):
             sp = plan_on_surface(flat, region, cfg.spacing, pattern=cfg.pattern, seed=cfg.seed,
@@ -103,6 +110,10 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
                 fig, max_feed = figure_for_job(cfg, surface, spath, smooth_kw=smooth_kw)
             smooth_kw["dwell_times"] = fig.times_s
             smooth_kw["max_feed_mm_min"] = max_feed
+        if not samples_mode:  # decided once, on the first plan (a re-plan with a wider margin is of the same size)
+            samples_mode = choose_samples_mode(cfg, held_for, spath, smooth_kw, est)
+            if samples_mode["mode"] == "stream":
+                smooth_kw["keep_samples"] = False
         with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth"):
             tool = smooth(spath, surface=surface, **smooth_kw)
         used = float(planar.provenance.params.get("margin", 0.0))
@@ -139,7 +150,44 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
             prediction = predict_residual(fig, tool.samples, tool.period_ms, sample_s=sample_s,
                                           delivered_s=region_times(tool, sample_s))
     return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched,
-               figuring=fig, figuring_prediction=prediction)
+               figuring=fig, figuring_prediction=prediction, samples_mode=samples_mode)
+
+
+def samples_held_for(cfg: JobConfig, machine) -> str:
+    """Why this job must hold every machine sample in memory ('' when it need not)."""
+    why = []
+    if machine is not None:
+        why.append(f"the feed schedule of --machine {cfg.machine} is a backward pass over every sample")
+    if cfg.error_map:
+        why.append("the figuring residual of --error-map is computed over every sample, and so are the least "
+                   "times it solves with")
+    return "; ".join(why)
+
+
+def choose_samples_mode(cfg: JobConfig, held_for: str, spath: SurfacePath, smooth_kw: dict[str, Any],
+                        est: resources.Estimate) -> dict[str, Any]:
+    """``{"mode": "memory" | "stream", "requested": cfg.samples, "expected_samples", "reason"}`` for this path.
+
+    ``--samples memory`` / ``stream`` as asked; ``auto`` streams when
+    :func:`polishpath.resources.stream_samples` says so for the samples expected
+    from the planned path (:func:`~polishpath.resources.expected_samples`), and
+    holds them where ``held_for`` says the job needs them.
+    """
+    from ..pathops import step_lengths
+
+    pieces = spath.planar.pieces if spath.planar is not None else None
+    times = smooth_kw.get("dwell_times")
+    expected = resources.expected_samples(
+        float(step_lengths(spath.xyz, pieces).sum()), feed_mm_min=smooth_kw.get("feed_mm_min", DEFAULT_FEED_MM_MIN),
+        period_ms=smooth_kw.get("period_ms", DEFAULT_PERIOD_MS),
+        total_time_s=float(np.sum(times)) if times is not None else None)
+    out = {"requested": cfg.samples, "expected_samples": float(expected)}
+    if cfg.samples != "auto":
+        return {**out, "mode": cfg.samples, "reason": f"--samples {cfg.samples} as asked"}
+    if held_for:
+        return {**out, "mode": "memory", "reason": f"held in memory: {held_for}"}
+    stream, reason = resources.stream_samples(expected, est)
+    return {**out, "mode": "stream" if stream else "memory", "reason": reason}
 
 
 

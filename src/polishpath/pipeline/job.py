@@ -44,6 +44,7 @@ class Job:
     schedule: dict[str, Any] = field(default_factory=dict)  # the feed schedule under the machine profile
     figuring: Any = None
     figuring_prediction: dict[str, Any] | None = None
+    samples_mode: dict[str, Any] = field(default_factory=dict)  # held or streamed, and why (pipeline.choose_samples_mode)
 
     @property
     def seed(self) -> int | None:
@@ -84,6 +85,9 @@ class Job:
             "smooth": {
                 "stats": self.tool_path.stats,
                 "samples": self.n_samples,
+                "samples_mode": self.samples_mode.get("mode", "memory"),
+                "samples_mode_reason": self.samples_mode.get("reason"),
+                "expected_samples": self.samples_mode.get("expected_samples"),
                 "period_ms": self.tool_path.period_ms,
                 "provenance": self.tool_path.provenance.to_dict(),
             },
@@ -200,10 +204,14 @@ class Job:
     def sample_chunks(self, size: int | None = None) -> Iterator[SampleChunk]:
         """The machine samples in path order as :class:`~polishpath.types.SampleChunk` s: cut from the held
         arrays, or regenerated from the curve and its schedule when the job streamed them."""
-        from ..export import sample_chunks
-
         kw = {} if size is None else {"size": size}
-        return sample_chunks(self.tool_path, **kw)
+        if len(self.tool_path.samples) or self.n_samples == 0:
+            from ..export import sample_chunks
+
+            return sample_chunks(self.tool_path, **kw)
+        from ..smooth import iter_sample_chunks
+
+        return iter_sample_chunks(self.tool_path, **kw)
 
     def _figuring_arrays(self) -> dict[str, Any]:
         """The figuring maps for ``run.npz`` (runfolder.FIGURING_ARRAY_KEYS); empty without figuring."""
