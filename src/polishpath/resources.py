@@ -6,12 +6,17 @@ the inputs alone, the triangles, dwell points, machine samples and peak memory
 of a job, and refuse with the numbers and the way out when the estimate exceeds
 a share of the memory this process may use.
 
-The memory model is measured, not derived (``polishpath plan`` on the
-hemisphere at 5,000-80,000 triangles and 45,000-180,000 dwell points, peak
-resident size): about 300 MB of libraries, 2 KB per triangle (meshing, checks,
-flattening), 4 KB per dwell point (planning, mapping, smoothing) and 0.2 KB per
-machine sample. The estimates are on the generous side on purpose: a refusal
-must mean "this cannot fit", never "this might not fit".
+The memory model is measured, not derived (peak resident size of ``polishpath
+plan``): about 300 MB of libraries, 2 KB per triangle (meshing, checks,
+flattening; the hemisphere at 5,000-80,000 triangles), 1.2 KB per dwell point
+(planning, mapping, smoothing, metrics, writing, report: 0.92 KB measured on the
+10^6-point disk of ``benchmarks/bench_job.py`` with its samples streamed) and
+0.1 KB per machine sample held (81 B measured on the same disk holding its
+15 M samples; a streamed job's samples cost :data:`STREAMED_SAMPLES_BYTES`
+whatever their count). The refusal before flattening counts the fewest dwell
+points the spacing can give (a uniform grid on the part: the planar grid is up
+to 2x denser where the flattening shrinks the part) and generous bytes for
+each: a refusal must mean "this cannot fit", never "this might not fit".
 
 Settings (environment)
 ----------------------
@@ -35,8 +40,8 @@ from .errors import ParameterError, ResourceError
 
 BASE_BYTES = 300e6
 BYTES_PER_TRIANGLE = 2e3
-BYTES_PER_DWELL_POINT = 4e3
-BYTES_PER_SAMPLE = 200.0
+BYTES_PER_DWELL_POINT = 1.2e3
+BYTES_PER_SAMPLE = 100.0
 #: dwell points per (area / spacing^2): the planar grid is denser than a uniform
 #: grid on the part where the flattening shrinks it (measured 2.0 on the hemisphere)
 DWELL_POINTS_PER_CELL = 2.0
@@ -44,7 +49,7 @@ DWELL_POINTS_PER_CELL = 2.0
 PATH_PER_DWELL_POINT = 1.3
 DEFAULT_SHARE = 0.8
 #: ``--samples auto`` streams the machine samples above this many expected (about 2.6 x the 15 M samples
-#: of a 10^6-point path at the default feed and period; held, they cost about 0.2 KB each, 8 GB at this count)
+#: of a 10^6-point path at the default feed and period; held, they cost about 0.1 KB each, 4 GB at this count)
 STREAM_ABOVE_SAMPLES = 40e6
 #: peak memory of a streamed job's samples, bytes: the chunks in flight and the writers' buffers, whatever
 #: the path's length (measured: see ``BYTES_PER_SAMPLE``)
@@ -182,7 +187,8 @@ def memory_budget() -> tuple[float, str]:
 
 
 def estimate(triangles: int, *, area_mm2: float = 0.0, spacing_mm: float | None = None,
-             feed_mm_min: float = 600.0, period_ms: float = 4.0) -> Estimate:
+             feed_mm_min: float = 600.0, period_ms: float = 4.0,
+             points_per_cell: float = DWELL_POINTS_PER_CELL) -> Estimate:
     """Estimate a job's size and peak memory from its inputs.
 
     Parameters
@@ -195,12 +201,15 @@ def estimate(triangles: int, *, area_mm2: float = 0.0, spacing_mm: float | None 
         Dwell-point spacing, mm. None: no plan (``info``, ``flatten``).
     feed_mm_min, period_ms : float
         Machine feed (mm/min) and interpolation period (ms), for the samples.
+    points_per_cell : float
+        Dwell points per ``spacing^2`` of the part's area (1: a uniform grid on the
+        part, the fewest; :data:`DWELL_POINTS_PER_CELL`: the hemisphere's measured density).
     """
     n = max(int(triangles), 0)
     dwell = samples = 0.0
     if spacing_mm is not None and spacing_mm > 0 and area_mm2 > 0:
         with _no_overflow():
-            dwell = DWELL_POINTS_PER_CELL * area_mm2 / (spacing_mm * spacing_mm)
+            dwell = points_per_cell * area_mm2 / (spacing_mm * spacing_mm)
             step = feed_mm_min / 60.0 * period_ms / 1000.0
             samples = dwell * PATH_PER_DWELL_POINT * spacing_mm / step if step > 0 else math.inf
     peak = BASE_BYTES + BYTES_PER_TRIANGLE * n + BYTES_PER_DWELL_POINT * dwell + BYTES_PER_SAMPLE * samples
@@ -353,9 +362,10 @@ def check_job(surface, spacing_mm: float, *, feed_mm_min: float, period_ms: floa
             f"spacing {spacing_mm:g} mm is too large for {surface.name}, which is {ext:.4g} mm across: "
             "fewer than two dwell points fit.", hint)
     area = meshops.surface_area(v, surface.faces)
+    # the fewest dwell points the spacing gives (a uniform grid on the part): a refusal means even they cannot fit
     est = estimate(surface.n_faces, area_mm2=area, spacing_mm=spacing_mm,
-                   feed_mm_min=feed_mm_min, period_ms=period_ms)
-    uniform = est.dwell_points / DWELL_POINTS_PER_CELL
+                   feed_mm_min=feed_mm_min, period_ms=period_ms, points_per_cell=1.0)
+    uniform = est.dwell_points
     way_out = (f"Use a larger --spacing (the count goes with 1 / spacing^2), or plan part of the surface. "
                + units_hint(surface))
     if uniform > max_points:
