@@ -49,6 +49,7 @@ TARGET_1E6_RSS_GB = 4.0
 TARGET_1E7_RSS_GB = 16.0
 TARGET_GCODE_BYTES_PER_POINT = 60.0
 TARGET_SAMPLES_PER_S = 2e6
+TARGET_WRITER_MB_S = 50.0
 
 # Runs inside the child: time every atomic write (the outputs all go through
 # polishpath.fileio.atomic_open), then run the command line as a user would.
@@ -193,6 +194,7 @@ def show(r: dict) -> list[str]:
     sm = tim.get("smooth", float("nan"))
     ip = float(s["smooth"]["stats"].get("interpolation_s", float("nan")))
     passes = s["smooth"]["stats"].get("schedule_passes", 1)
+    print(f"  machine samples {s['smooth'].get('samples_mode', 'memory')}: {s['smooth'].get('samples_mode_reason')}")
     print(f"  machine samples: {samples:,} ({samples / n:.1f} per dwell point), {samples / sm / 1e6:.2f} M/s "
           f"over the smoothing stage, {samples / ip / 1e6:.2f} M/s over the interpolation kernels "
           f"({passes} schedule passes: {samples * passes / ip / 1e6:.2f} M samples/s per pass)")
@@ -231,33 +233,60 @@ def show(r: dict) -> list[str]:
     def target(ok: bool, text: str, why: str = "") -> None:
         (met if ok else missed).append(text if ok or not why else f"{text}: {why}")
 
+    post = s.get("post") or {}
     gcode = sizes.get("toolpath.nc")
     if gcode is not None:
+        lpp = float(post.get("lines_per_dwell_point") or 0.0)
+        seg = post.get("segmenting")
+        tol = post.get("segment_chord_tol_mm")
+        how = (f"{seg} segmenting at a chord tolerance of {1000 * tol:g} um" if seg and tol
+               else f"{post.get('mode', '?')} mode")
         target(gcode / n <= TARGET_GCODE_BYTES_PER_POINT,
                f"G-code {gcode / n:.0f} B per dwell point (target <= {TARGET_GCODE_BYTES_PER_POINT:.0f}, "
-               f"{gcode / n / TARGET_GCODE_BYTES_PER_POINT:.1f}x)", "one line per machine sample unless the "
-               "post merges samples under the chord tolerance (export's modal, chord-tolerance G-code)")
+               f"{gcode / n / TARGET_GCODE_BYTES_PER_POINT:.1f}x)",
+               f"{lpp:.2f} blocks per dwell point ({how}) of about {gcode / max(lpp * n, 1):.0f} B each; the target "
+               f"allows about {TARGET_GCODE_BYTES_PER_POINT * max(lpp * n, 1) / gcode:.1f} of them per point "
+               "(docs/machine-output.md: blocks per dwell point at each tolerance)")
     rate = samples / sm if sm > 0 else 0.0
-    passes = s["smooth"]["stats"].get("schedule_passes", 1)
+    outside = sm - ip if math.isfinite(ip) else float("nan")
     target(rate >= TARGET_SAMPLES_PER_S,
            f"smoothing stage {rate / 1e6:.2f} M samples/s (target >= {TARGET_SAMPLES_PER_S / 1e6:.0f} M/s, "
            f"{TARGET_SAMPLES_PER_S / max(rate, 1e-9):.1f}x short)",
-           f"the dwell-time schedule runs the interpolation {passes} times over every sample (each pass changes "
-           f"every region's feed, so none can be skipped) at {samples * passes / ip / 1e6:.2f} M samples/s per "
-           "pass; each sample's Taylor step and exact chord corrector is a serial chain of curve evaluations, "
-           "and fewer would change the samples' last digits")
+           f"the stage ran {passes} interpolation pass(es) over every sample at {samples * passes / ip / 1e6:.2f} M "
+           f"samples/s per pass ({ip:.1f} s in the kernels), and spent {outside:.1f} s outside the kernels "
+           "(the curve, its checks, the figures)")
+    # the writers: files written in the same pass over the samples (their clocks overlap) count as one
+    spans = sorted((w["start"], w["end"], Path(w["file"]).name) for w in r["writers"]
+                   if Path(w["file"]).name in ("toolpath.nc", "toolpath.xyz", "path.csv") and Path(w["file"]).is_file())
+    groups: list[list] = []
+    for a, b, name in spans:
+        if groups and a < groups[-1][1]:
+            groups[-1][1] = max(groups[-1][1], b)
+            groups[-1][2].append(name)
+        else:
+            groups.append([a, b, [name]])
+    for a, b, names in groups:
+        mb = sum(sizes.get(x, 0) for x in names) / 1e6
+        wr = mb / (b - a) if b > a else float("inf")
+        what = " + ".join(names) + (" (one pass over the samples)" if len(names) > 1 else "")
+        target(wr >= TARGET_WRITER_MB_S, f"writer {what} {wr:.0f} MB/s (target >= {TARGET_WRITER_MB_S:.0f} MB/s)",
+               f"{mb:.0f} MB in {b - a:.1f} s; in a streamed job the pass regenerates the samples too "
+               f"(samples {s['smooth'].get('samples_mode', 'memory')})")
     big = sorted(((v, k) for k, v in tim.items()), reverse=True)[:3]
+    mode = s["smooth"].get("samples_mode", "memory")
+    held = (f"the job held every machine sample ({samples:,} x 40 B of arrays and their copies: "
+            f"{s['smooth'].get('samples_mode_reason') or '--samples memory'})" if mode == "memory" else
+            "the samples streamed (regenerated in chunks for the writers), so the peak is the stage's own "
+            "O(dwell points) data")
     if abs(math.log10(r["n_target"]) - 6) < 0.01:
         target(r["wall"] <= TARGET_1E6_S, f"10^6 whole job {r['wall']:.0f} s (target <= {TARGET_1E6_S:.0f} s, "
                f"by {r['wall'] - TARGET_1E6_S:+.0f} s)", "the largest stages: " + ", ".join(
                    f"{k} {v:.0f} s" for v, k in big))
         target(r["rss_gb"] <= TARGET_1E6_RSS_GB, f"10^6 peak RSS {r['rss_gb']:.2f} GB (target <= "
-               f"{TARGET_1E6_RSS_GB:.0f} GB)", f"the peak is in the stage '{top[0]}' ({top[1]:.2f} GB); the job holds "
-               "every machine sample (40 B each: point, parameter, feed) until the writers have written them")
+               f"{TARGET_1E6_RSS_GB:.0f} GB)", f"the peak is in the stage '{top[0]}' ({top[1]:.2f} GB); {held}")
     if abs(math.log10(r["n_target"]) - 7) < 0.01:
         target(r["rss_gb"] <= TARGET_1E7_RSS_GB, f"10^7 peak RSS {r['rss_gb']:.2f} GB (target <= "
-               f"{TARGET_1E7_RSS_GB:.0f} GB)", f"the peak is in the stage '{top[0]}' ({top[1]:.2f} GB); the job "
-               "holds every machine sample (40 B each) until the writers have written them")
+               f"{TARGET_1E7_RSS_GB:.0f} GB)", f"the peak is in the stage '{top[0]}' ({top[1]:.2f} GB); {held}")
     for t in met:
         print(f"  target met: {t}")
     for t in missed:
