@@ -46,8 +46,14 @@ def test_the_stages_come_back_from_the_files(saved):
         np.testing.assert_array_equal(getattr(s, name), getattr(t, name))
     assert s.stats["step_max"] == pytest.approx(t.stats["step_max"])
     a, b = run.tool_path, job.tool_path
-    for name in ("samples", "sample_params", "feed_mm_min", "dwell_params"):
-        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    # format 2: the samples' schedule, not the samples; regenerated, they are the job's bit for bit
+    assert not run.samples_stored and len(a.samples) == 0 and a.schedule is not None
+    from polishpath.simulate.jobpath import with_samples
+
+    held = with_samples(a)
+    for name in ("samples", "sample_params", "feed_mm_min"):
+        np.testing.assert_array_equal(getattr(held, name), getattr(b, name))
+    np.testing.assert_array_equal(a.dwell_params, b.dwell_params)
     np.testing.assert_array_equal(a.curve.knots, b.curve.knots)
     np.testing.assert_array_equal(a.curve.control_points, b.curve.control_points)
     assert a.curve.degree == b.curve.degree and a.period_ms == b.period_ms
@@ -93,14 +99,14 @@ def test_a_folder_from_before_the_format_reads_but_says_what_it_lacks(saved, tmp
     del s[SCHEMA_KEY]
     (d / "summary.json").write_text(json.dumps(s))
     with np.load(out / "run.npz") as z:
-        arrays = {k: z[k] for k in z.files if k not in ("face_ids", "bary", "sample_params")}
+        arrays = {k: z[k] for k in z.files if k not in ("face_ids", "bary", "schedule_region_feeds")}
     np.savez(d / "run.npz", **arrays)
     run = read_run(d)
     assert run.schema == 0 and run.surface.n_faces > 0
     with pytest.raises(InputError, match="lacks face_ids, bary") as e:
         run.surface_path
     assert "polishpath plan --config" in str(e.value)
-    with pytest.raises(InputError, match="lacks sample_params"):
+    with pytest.raises(InputError, match="lacks samples, sample_params"):  # neither the samples nor their schedule
         run.tool_path
 
 
@@ -158,8 +164,8 @@ def test_run_arrays_are_read_on_first_use_and_large_stored_ones_mapped(saved, mo
     monkeypatch.setattr(NpzArrays, "MAP_BYTES", 1024)
     run = read_run(out)
     assert isinstance(run.arrays, NpzArrays) and run.arrays._cache == {}
-    smp = run.arrays["samples"]
-    assert isinstance(smp.base, np.memmap) and np.array_equal(smp, job.tool_path.samples)
-    smp[0, 0] += 1.0  # the caller's copy only
-    assert np.array_equal(read_run(out).arrays["samples"], job.tool_path.samples)
-    assert list(run.arrays._cache) == ["samples"] and "xyz" in run.arrays and "nothing" not in run.arrays
+    xyz = run.arrays["xyz"]
+    assert isinstance(xyz.base, np.memmap) and np.array_equal(xyz, job.surface_path.xyz)
+    xyz[0, 0] += 1.0  # the caller's copy only
+    assert np.array_equal(read_run(out).arrays["xyz"], job.surface_path.xyz)
+    assert list(run.arrays._cache) == ["xyz"] and "plan_uv" in run.arrays and "nothing" not in run.arrays

@@ -150,3 +150,95 @@ def test_the_memory_check_counts_streamed_samples_as_bounded(monkeypatch):
     resources.check_job(surf, 0.5, **kw, samples="auto")
     with pytest.raises(ResourceError, match="POLISHPATH_MAX_MEMORY"):
         resources.check_job(surf, 0.5, **kw, samples="memory")
+
+
+# --- the issue's test: a streamed job and an in-memory job write the same bytes -----------------------------
+
+
+def _strip_volatile(summary: dict) -> dict:
+    s = dict(summary)
+    for k in ("created", "timings_s", "machine"):
+        s.pop(k, None)
+    s["config"] = {k: v for k, v in s["config"].items() if k != "samples"}
+    s["smooth"] = {k: v for k, v in s["smooth"].items() if not k.startswith("samples_mode")}
+    s["post"] = {k: v for k, v in s["post"].items() if k != "path"}  # the folder's own name
+    return s
+
+
+#: wall-clock figures, which no two runs share
+CLOCKS = {"seconds", "timings_s", "interpolation_s", "created"}
+
+
+def _close(a, b, path="summary"):
+    """Equal JSON values, floats to 1e-12 relative (a sum accumulated chunk by chunk adds in another order)."""
+    if isinstance(a, dict):
+        assert set(a) == set(b), f"{path}: keys {sorted(set(a) ^ set(b))}"
+        for k in (k for k in a if k not in CLOCKS and not k.endswith("_seconds")):
+            _close(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, list):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b)):
+            _close(x, y, f"{path}[{i}]")
+    elif isinstance(a, float) and isinstance(b, float):
+        assert a == pytest.approx(b, rel=1e-12, abs=1e-15), path
+    else:
+        assert a == b, path
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory):
+    import polishpath
+    from polishpath.pipeline import job as job_module
+
+    out = tmp_path_factory.mktemp("stream")
+    spec = dict(surface="pentagram:triangles=1500", spacing=1.5, seed=3)  # three pieces
+    held = polishpath.run(**spec, samples="memory")
+    held.save(out / "memory")
+    old = job_module.CHUNK_SAMPLES
+    job_module.CHUNK_SAMPLES = 97  # a prime: chunks cut pieces and bins anywhere
+    try:
+        streamed = polishpath.run(**spec, samples="stream")
+        streamed.save(out / "stream")
+    finally:
+        job_module.CHUNK_SAMPLES = old
+    return held, streamed, out / "memory", out / "stream"
+
+
+def test_a_streamed_job_holds_no_sample(two_runs):
+    held, streamed, _, _ = two_runs
+    assert len(held.planar.pieces) - 1 >= 3
+    assert held.samples_mode["mode"] == "memory" and streamed.samples_mode["mode"] == "stream"
+    assert len(streamed.tool_path.samples) == 0 and streamed.n_samples == len(held.tool_path.samples) > 10_000
+
+
+@pytest.mark.parametrize("name", ["toolpath.nc", "toolpath.xyz", "path.csv", "flat.obj", "run.npz",
+                                  "figures/feed_rate.png", "figures/surface_path.png", "figures/planar_path.png"])
+def test_a_streamed_job_writes_the_same_bytes(two_runs, name):
+    _, _, a, b = two_runs
+    assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+def test_a_streamed_job_records_the_same_run(two_runs):
+    import json
+
+    _, _, a, b = two_runs
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert sa["smooth"]["samples_mode"] == "memory" and sb["smooth"]["samples_mode"] == "stream"
+    _close(_strip_volatile(sa), _strip_volatile(sb))
+    ja, jb = ((d / "job.toml").read_text().splitlines() for d in (a, b))
+    assert [x for x in ja if not x.startswith("samples")] == [x for x in jb if not x.startswith("samples")]
+    assert 'samples = "stream"' in jb
+
+
+def test_a_streamed_run_folder_simulates_the_samples_it_wrote(two_runs):
+    from polishpath.export import read_xyz
+    from polishpath.runfolder import read_run
+    from polishpath.simulate.jobpath import with_samples
+
+    held, _, _, b = two_runs
+    run = read_run(b)
+    assert not run.samples_stored
+    tp = with_samples(run.tool_path)
+    for name in ("samples", "sample_params", "feed_mm_min"):
+        np.testing.assert_array_equal(getattr(tp, name), getattr(held.tool_path, name))
+    np.testing.assert_allclose(read_xyz(b / "toolpath.xyz"), tp.samples, atol=5e-7)

@@ -23,6 +23,7 @@ new one (a renamed or re-meant key), not for an added key.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Mapping
@@ -36,10 +37,12 @@ import numpy as np
 from ._version import __version__
 from .errors import InputError
 from .fileio import atomic_open, jsonable, read_toml  # read_toml: job.toml, job configs (re-exported)
-from .types import Flattening, NurbsCurve, PlanarPath, Provenance, Region, Surface, SurfacePath, ToolPath
+from .types import (Flattening, NurbsCurve, PlanarPath, Provenance, Region, SampleSchedule, Surface, SurfacePath,
+                    ToolPath)
 
-#: version of the run-folder format written by this polishpath
-SCHEMA_VERSION = 1
+#: version of the run-folder format written by this polishpath (2: the machine samples are not stored
+#: where their schedule regenerates them; 1 stored every sample)
+SCHEMA_VERSION = 2
 #: top-level key of ``summary.json`` holding the format version (absent: a folder from before the format had one, 0)
 SCHEMA_KEY = "run_folder_schema"
 
@@ -48,18 +51,27 @@ SUMMARY_FILE = "summary.json"
 JOB_FILE = "job.toml"
 SIMULATION_DIR = "simulation"
 
-#: every fixed key of ``run.npz`` (plus ``residual_<name>`` per flattening residual and
-#: ``region_loop_<i>`` per boundary loop of the planning region, outer first)
+#: every fixed key of ``run.npz`` (plus ``residual_<name>`` per flattening residual,
+#: ``region_loop_<i>`` per boundary loop of the planning region, outer first, and the tool path's
+#: samples as :data:`SCHEDULE_ARRAY_KEYS` or :data:`SAMPLE_ARRAY_KEYS`)
 ARRAY_KEYS = (
     "vertices", "faces",                                   # surface
     "uv", "angles",                                        # flattening
     "plan_uv", "plan_ij", "plan_pieces", "plan_unreached",  # planar path
     "plan_spacing", "plan_origin", "plan_rotation",
     "xyz", "normals", "dwell_weight", "face_ids", "bary",  # path on the part
-    "samples", "sample_params", "feed_mm_min", "dwell_params", "dwell_times",  # tool path
+    "dwell_params", "dwell_times",                         # tool path
     "knots", "control_points", "curve_weights", "curve_degree",
     "display_sample_index", "display_samples", "feed_bins", "feed_envelope",  # what the report draws of the samples
 )
+
+#: the machine samples' schedule (:class:`~polishpath.types.SampleSchedule`, one key per field): with the
+#: curve, it regenerates every sample bit for bit (``polishpath.smooth.iter_sample_chunks``), so the
+#: samples themselves are not stored (format 2)
+SCHEDULE_ARRAY_KEYS = tuple(f"schedule_{f.name}" for f in dataclasses.fields(SampleSchedule))
+#: the samples themselves: stored only for a path without a schedule (feeds rescheduled under a machine
+#: profile, ``--machine``), and in every format-1 folder
+SAMPLE_ARRAY_KEYS = ("samples", "sample_params", "feed_mm_min")
 
 #: arrays of a figuring run (``--error-map``), on the analysis grid ``figuring_grid`` = (x0, y0, pitch) mm
 FIGURING_ARRAY_KEYS = (
@@ -97,12 +109,12 @@ def estimate_run_bytes(n_points: int, n_samples: int, n_vertices: int, n_faces: 
     """Rough upper estimate of a run folder's size on disk, bytes.
 
     Per dwell point (path.csv row, run.npz arrays) about 400 bytes, per machine
-    sample (toolpath.xyz and toolpath.nc lines, run.npz arrays) about 160, per
+    sample (the toolpath.xyz line, 31 bytes, and the G-code's share) about 100
+    (run.npz no longer stores samples that their schedule regenerates), per
     vertex / face (flat.obj, run.npz) about 150, and 12 MB for the report
-    (plotly.js, the figures); measured on hemisphere jobs about 1.6x above the
-    real size.
+    (plotly.js, the figures): a generous figure, on purpose.
     """
-    size = 400 * n_points + 160 * n_samples + 150 * (n_vertices + n_faces)
+    size = 400 * n_points + 100 * n_samples + 150 * (n_vertices + n_faces)
     return int(size + (12 * 2**20 if report else 0))
 
 
@@ -148,12 +160,15 @@ def write_run(
         "plan_spacing": np.float64(pp.spacing), "plan_origin": pp.origin, "plan_rotation": np.float64(pp.rotation),
         "xyz": sp.xyz, "normals": sp.normals, "dwell_weight": sp.dwell_weight,
         "face_ids": sp.face_ids, "bary": sp.bary,
-        "samples": tp.samples, "sample_params": tp.sample_params, "feed_mm_min": tp.feed_mm_min,
         "dwell_params": tp.dwell_params,
         "dwell_times": tp.dwell_times if tp.dwell_times is not None else np.zeros(0),
         "knots": tp.curve.knots, "control_points": tp.curve.control_points,
         "curve_weights": tp.curve.weights, "curve_degree": np.int64(tp.curve.degree),
     }
+    if tp.schedule is not None:  # the samples are regenerable: their schedule, not the samples
+        arrays.update(schedule_arrays(tp.schedule))
+    else:
+        arrays.update(samples=tp.samples, sample_params=tp.sample_params, feed_mm_min=tp.feed_mm_min)
     for k, v in fl.residuals.items():
         arrays[f"residual_{k}"] = np.asarray(v)
     for i, loop in enumerate(region.loops):
@@ -168,6 +183,20 @@ def write_run(
     with atomic_open(written["job"], "w") as fh:
         fh.write(job_toml(config))
     return written
+
+
+def schedule_arrays(schedule: SampleSchedule) -> dict[str, np.ndarray]:
+    """A :class:`~polishpath.types.SampleSchedule` as ``run.npz`` arrays (:data:`SCHEDULE_ARRAY_KEYS`)."""
+    return {f"schedule_{f.name}": np.asarray(getattr(schedule, f.name)) for f in dataclasses.fields(SampleSchedule)}
+
+
+def schedule_from_arrays(arrays: Mapping[str, np.ndarray]) -> SampleSchedule:
+    """The :class:`~polishpath.types.SampleSchedule` of :func:`schedule_arrays` (0-d arrays back to scalars)."""
+    kw = {}
+    for f in dataclasses.fields(SampleSchedule):
+        a = np.asarray(arrays[f"schedule_{f.name}"])
+        kw[f.name] = a.item() if a.ndim == 0 else a
+    return SampleSchedule(**kw)
 
 
 #: bytes of an array probed to decide whether compressing it pays (:func:`write_npz`)
@@ -427,12 +456,33 @@ class RunData:
         return SurfacePath(xyz, nrm, fid, bary, w, self.planar, provenance=self._provenance("map", "map"),
                            stats=dict(m.get("stats") or {}))
 
+    @property
+    def samples_stored(self) -> bool:
+        """True when ``run.npz`` holds the machine samples (a format-1 folder, or a path without a schedule);
+        False when it holds their schedule (:data:`SCHEDULE_ARRAY_KEYS`) and they are regenerated on demand."""
+        return not all(k in self.arrays for k in SCHEDULE_ARRAY_KEYS)
+
     @cached_property
     def tool_path(self) -> ToolPath:
-        """The machine path: ``samples`` (M, 3) mm at ``period_ms``, ``feed_mm_min`` (M,) mm/min."""
-        knots, cp, w, deg, dp, smp, spar, feed, dt = self._need(
-            "knots", "control_points", "curve_weights", "curve_degree", "dwell_params", "samples", "sample_params",
-            "feed_mm_min", "dwell_times")
+        """The machine path: ``samples`` (M, 3) mm at ``period_ms``, ``feed_mm_min`` (M,) mm/min.
+
+        A folder that stores the samples' schedule rather than the samples
+        (:attr:`samples_stored` False) gives a ToolPath with empty sample arrays
+        and its ``schedule``: ``polishpath.smooth.iter_sample_chunks`` regenerates
+        the samples from it bit for bit (what ``polishpath simulate RUN_DIR`` does).
+        """
+        knots, cp, w, deg, dp, dt = self._need(
+            "knots", "control_points", "curve_weights", "curve_degree", "dwell_params", "dwell_times")
+        schedule = None
+        if self.samples_stored:
+            smp, spar, feed = self._need(*SAMPLE_ARRAY_KEYS)
+        else:
+            try:
+                schedule = schedule_from_arrays(self.arrays)
+            except (ValueError, TypeError) as e:  # a malformed schedule: the folder is broken
+                raise InputError(f"{self.folder / ARRAYS_FILE} holds a malformed sample schedule ({e}).",
+                                 "Run the job again with `polishpath plan --config DIR/job.toml -o DIR`.") from e
+            smp, spar, feed = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
         sm = self.section("smooth")
         period = sm.get("period_ms")
         if not isinstance(period, (int, float)):
@@ -440,7 +490,7 @@ class RunData:
                              "Run the job again with `polishpath plan --config DIR/job.toml -o DIR`.")
         return ToolPath(NurbsCurve(int(deg), knots, cp, w), dp, smp, spar, feed, float(period), self.surface_path,
                         provenance=self._provenance("smooth", "smooth"), stats=dict(sm.get("stats") or {}),
-                        dwell_times=dt if dt.size else None)
+                        dwell_times=dt if dt.size else None, schedule=schedule)
 
 
 def read_run(folder: str | Path) -> RunData:

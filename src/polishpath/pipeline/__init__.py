@@ -26,6 +26,7 @@ from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD
 from ..errors import ParameterError, PlanningError
 from ..provenance import resolve_seed
 from ..types import Surface, SurfacePath
+from . import job as _job
 from .job import Job, machine_profile, post_name, rebuild_report
 from .surfaceplan import AUTO_MARGIN_FACTOR, SurfacePlan, plan_on_surface
 from .surfaceplan import _honour_surface_spacing  # noqa: F401  (tests/test_pipeline_wiring.py)
@@ -114,6 +115,8 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
             samples_mode = choose_samples_mode(cfg, held_for, spath, smooth_kw, est)
             if samples_mode["mode"] == "stream":
                 smooth_kw["keep_samples"] = False
+                if _job.CHUNK_SAMPLES is not None:
+                    smooth_kw["chunk_samples"] = _job.CHUNK_SAMPLES
         with progress.stage("smoothing (NURBS) and interpolation", timings, "smooth"):
             tool = smooth(spath, surface=surface, **smooth_kw)
         used = float(planar.provenance.params.get("margin", 0.0))

@@ -26,6 +26,11 @@ if TYPE_CHECKING:
     from ..export import SampleChunk
 
 
+#: samples per chunk when the job streams them (the smoothing passes, the writers' pass); None: the
+#: stages' own defaults (a quarter of a million samples, about 10 MB). Tests set it small.
+CHUNK_SAMPLES: int | None = None
+
+
 @dataclass(frozen=True)
 class Job:
     """Results of every stage of one run, and what produced them."""
@@ -204,6 +209,7 @@ class Job:
     def sample_chunks(self, size: int | None = None) -> Iterator[SampleChunk]:
         """The machine samples in path order as :class:`~polishpath.types.SampleChunk` s: cut from the held
         arrays, or regenerated from the curve and its schedule when the job streamed them."""
+        size = CHUNK_SAMPLES if size is None else size
         kw = {} if size is None else {"size": size}
         if len(self.tool_path.samples) or self.n_samples == 0:
             from ..export import sample_chunks
@@ -239,7 +245,7 @@ class Job:
             "seed": self.seed,
             "dwell_points": self.planar.n_points,
             **{k: v for k, v in self.config.to_dict().items()
-               if k not in ("surface", "seed", "post_settings") and v is not None},
+               if k not in ("surface", "seed", "post_settings", "samples") and v is not None},  # samples: how, not what
         }
 
 

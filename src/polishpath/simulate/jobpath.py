@@ -120,6 +120,31 @@ def _sample_pieces(tp: ToolPath) -> np.ndarray:
     return piece_offsets(None, m)
 
 
+def with_samples(tool_path: ToolPath) -> ToolPath:
+    """The ToolPath with its machine samples held: itself when it holds them, else the samples regenerated
+    from its curve and schedule (a streamed job's, or one read from a run folder that stores the schedule only:
+    :func:`polishpath.smooth.iter_sample_chunks`, bit for bit the samples the job wrote).
+
+    The simulation needs every sample at once (about 40 bytes each: 6 GB for the 1.5 x 10^8 samples of a
+    10^7-point path).
+    """
+    if len(tool_path.samples) or tool_path.schedule is None or tool_path.schedule.n_samples == 0:
+        return tool_path
+    from ..smooth import iter_sample_chunks
+
+    n = tool_path.schedule.n_samples
+    s, u, f = np.empty((n, 3)), np.empty(n), np.empty(n)
+    a = 0
+    for c in iter_sample_chunks(tool_path):
+        b = a + len(c)
+        s[a:b], u[a:b], f[a:b] = c.samples, c.sample_params, c.feed_mm_min
+        a = b
+    if a != n:
+        raise ParameterError(f"the tool path's schedule promises {n} samples; its regeneration gave {a}.",
+                             "The run folder may be damaged: run the job again.")
+    return replace(tool_path, samples=s, sample_params=u, feed_mm_min=f)
+
+
 def timed_path(path: SurfacePath | ToolPath, *, timing: str = "machine", plane: str = "xy",
                dwell_s: np.ndarray | None = None) -> TimedPath:
     """Where the tool is and for how long, in a simulation plane, from what a job made.
@@ -166,6 +191,7 @@ def timed_path(path: SurfacePath | ToolPath, *, timing: str = "machine", plane: 
         if tp is None:
             raise ParameterError("machine timing needs the ToolPath (a SurfacePath has no machine samples).",
                                  "Pass the ToolPath, or use timing='dwell' with dwell_s.")
+        tp = with_samples(tp)
         m = len(tp.samples)
         if m == 0:
             raise ParameterError("the tool path has no samples.", "Smooth the path first (polishpath.smooth).")
