@@ -11,7 +11,7 @@ import dataclasses
 import datetime
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterator
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -20,10 +20,7 @@ from .._version import __version__
 from ..config import JobConfig
 from ..fileio import atomic_open, jsonable
 from ..provenance import machine_info
-from ..types import Flattening, PlanarPath, Region, Surface, SurfacePath, ToolPath
-
-if TYPE_CHECKING:
-    from ..export import SampleChunk
+from ..types import Flattening, PlanarPath, Region, SampleChunk, Surface, SurfacePath, ToolPath
 
 
 #: samples per chunk when the job streams them (the smoothing passes, the writers' pass); None: the
