@@ -242,3 +242,16 @@ def test_a_streamed_run_folder_simulates_the_samples_it_wrote(two_runs):
     for name in ("samples", "sample_params", "feed_mm_min"):
         np.testing.assert_array_equal(getattr(tp, name), getattr(held.tool_path, name))
     np.testing.assert_allclose(read_xyz(b / "toolpath.xyz"), tp.samples, atol=5e-7)
+
+
+@pytest.mark.parametrize("post", ["fanuc", "xyz", "csv"])
+def test_every_post_writes_the_same_file_streamed(tmp_path, post, monkeypatch):
+    import polishpath
+    from polishpath.pipeline import job as job_module
+
+    spec = dict(surface="hemisphere:R=12,triangles=700", spacing=1.5, seed=5, post=post, report=False)
+    polishpath.run(**spec, samples="memory").save(tmp_path / "memory")
+    monkeypatch.setattr(job_module, "CHUNK_SAMPLES", 101)
+    polishpath.run(**spec, samples="stream").save(tmp_path / "stream")
+    for name in ("toolpath.nc" if post == "fanuc" else "toolpath.xyz", "toolpath.xyz", "path.csv", "run.npz"):
+        assert (tmp_path / "memory" / name).read_bytes() == (tmp_path / "stream" / name).read_bytes(), name

@@ -156,10 +156,16 @@ class Job:
                 # ONE pass over the samples (held, or regenerated chunk by chunk): the post's file, toolpath.xyz
                 # and the report's digest of them (run.npz) all take the same chunks
                 digest = SampleDigest(n_samples)
+
+                def counted(chunks):  # the pass's progress: samples written so far
+                    for c in chunks:
+                        yield c
+                        progress.update(digest.done, n_samples, "samples written")
+
                 info = export.write_program(self.tool_path, out, post=post_name(cfg),
                                             settings=export.job_post_settings(cfg), mode=cfg.gcode,
                                             tool_radius=cfg.tool_radius, header=header, surface=self.surface,
-                                            chunks=digest.observe(self.sample_chunks()), xyz=True)
+                                            xyz=True, chunks=counted(digest.observe(self.sample_chunks())))
                 info.pop("xyz_path", None)
                 if info.get("path"):  # the summary names the file where it will be, not in the staging folder
                     info["path"] = str(target / Path(info["path"]).relative_to(out))
