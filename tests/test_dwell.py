@@ -105,9 +105,14 @@ def _removal_along_cubic(csv, times, px, py, sigma, peak, spacing, nodes=4):
     return out
 
 
-def _region_times_of_run(arr, period_ms):
-    """Time the run's machine samples spend in each dwell point's region (one piece), from run.npz."""
-    dp, sp = arr["dwell_params"], arr["sample_params"]
+def _region_times_of_run(out, period_ms):
+    """Time the run's machine samples spend in each dwell point's region (one piece), from the run folder
+    (run.npz holds the samples' schedule: their parameters regenerated from it)."""
+    from polishpath.runfolder import read_run
+    from polishpath.simulate.jobpath import with_samples
+
+    tp = with_samples(read_run(out).tool_path)
+    dp, sp = tp.dwell_params, tp.sample_params
     rb = np.concatenate([[sp[0]], 0.5 * (dp[1:] + dp[:-1]), [sp[-1]]])
     return np.diff(np.interp(rb, sp, np.arange(len(sp)) * period_ms / 1000.0))
 
@@ -143,7 +148,7 @@ def test_independent_removal_from_path_csv_agrees(figured_job):
     reported = arr["figuring_residual_nm"][ii, jj]
     assert np.isfinite(reported).all()
     assert abs(np.std(reported) - fg["residual_rms_nm"]) <= 0.005 * init  # the subset stands for the whole
-    got = _region_times_of_run(arr, summary["smooth"]["period_ms"])
+    got = _region_times_of_run(out, summary["smooth"]["period_ms"])
     mine = _removal_along_cubic(csv, got, px, py, sigma, 15.0, 0.5)
     diff = (target[ii, jj] - mine) - reported
     assert np.sqrt(np.mean(diff**2)) <= 0.01 * init  # (a), measured 0.35 %
