@@ -241,6 +241,10 @@ def show(r: dict) -> list[str]:
         tol = post.get("segment_chord_tol_mm")
         how = (f"{seg} segmenting at a chord tolerance of {1000 * tol:g} um" if seg and tol
                else f"{post.get('mode', '?')} mode")
+        if post.get("arcs"):
+            how += f", {int(post.get('arc_blocks') or 0) / max(lpp * n, 1):.0%} of the blocks arcs"
+        elif post.get("arcs") is False:
+            how += ", straight blocks only (--no-arcs)"
         target(gcode / n <= TARGET_GCODE_BYTES_PER_POINT,
                f"G-code {gcode / n:.0f} B per dwell point (target <= {TARGET_GCODE_BYTES_PER_POINT:.0f}, "
                f"{gcode / n / TARGET_GCODE_BYTES_PER_POINT:.1f}x)",
