@@ -33,9 +33,10 @@ the same fraction). Elsewhere (intervals split by an inserted dwell point,
 tool-centre paths) they are evaluated, once each, from the curve's span
 polynomials.
 
-Each dwell interval is searched by galloping then bisection on the block's end
-(the fit is checked at the end found, so every block written fits), so a
-block of b samples costs O(b log b) point checks, not O(b^2).
+Each block's end is searched by bisection between its start and the next
+dwell point (the whole interval first; the fit is checked at the end found, so
+every block written fits): O(L log L) point checks for a dwell interval of L
+samples, not O(L^2).
 
 Written by hand: this is the project's segmenting (no library fits G-code
 arcs under a time constraint).
@@ -488,8 +489,9 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final):
                 span = _check_points(F, B, i, breaks, coeffs, dp, dn, radius, span)
         s = a
         while s < e:
-            # the block's end: galloping (s+2, s+3, s+5, s+9, ... up to e) from the always-kept s+1, then
-            # bisection between the last fit and the first misfit. The arc as written (its rounding) is
+            # the block's end: the dwell point e if one block reaches it, else bisection between the
+            # always-kept s+1 (or the last fit) and the first misfit (fewer fits than galloping up from s+2,
+            # blocks being a third to a half of a dwell interval). The arc as written (its rounding) is
             # checked at the end found; where it is off (rarely), the search runs again with it.
             lo = s + 1
             kind, gi, gj = LINE, 0.0, 0.0
@@ -498,9 +500,7 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final):
                 lo = s + 1
                 hi = e + 1
                 kind, gi, gj = LINE, 0.0, 0.0
-                step = 1
-                galloping = True
-                c = min(s + 2, e) if s + 1 < e else -1
+                c = e if s + 1 < e else -1
                 while c > 0:
                     r, k, fi, fj = _fits(F, B, s, c, tol, e_s, res, arcs, rounding)
                     while r < 0:  # evaluate the check points the fit needs, then fit again
@@ -511,11 +511,6 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final):
                         kind, gi, gj = k, fi, fj
                     else:
                         hi = c
-                    if galloping and r == 1 and c < e:
-                        step *= 2
-                        c = min(s + 1 + step, e)
-                        continue
-                    galloping = False
                     c = (lo + hi) // 2 if hi - lo > 1 else -1
                 if kind == LINE or rounding:
                     break
