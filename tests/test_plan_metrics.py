@@ -263,3 +263,21 @@ def test_path_metrics_of_a_planned_path_match_direct_formulas():
         assert m["coverage"] == pytest.approx(min(distinct, path.n_inside) / path.n_inside, abs=1e-15)
         assert m["step_mean"] == pytest.approx(np.hypot(*d.T).mean(), rel=1e-12)
         assert m["crossings"] == shapely_crossings(path.uv, path.pieces)
+
+
+def test_farthest_sample_matches_a_kd_tree_query_of_every_sample():
+    # the grid search (rings of cells, a KD-tree for the samples it leaves open) must
+    # give the KD-tree's farthest sample exactly: same distance, same first index
+    from scipy.spatial import cKDTree
+
+    from polishpath.plan.metrics import _farthest_sample
+
+    rng = np.random.default_rng(1)
+    for trial in range(120):
+        uv = rng.random((int(rng.integers(1, 300)), 2)) * rng.choice([1, 10, 100])
+        samples = rng.random((int(rng.integers(1, 500)), 2)) * 120 - 10  # many far outside the points
+        if trial % 3 == 0:  # ties and repeated points
+            uv, samples = np.round(uv), np.round(samples)
+        dist, _ = cKDTree(uv).query(samples)
+        k, d = _farthest_sample(uv, samples)
+        assert k == int(np.argmax(dist)) and d == dist.max()

@@ -342,10 +342,96 @@ def largest_empty_disc(uv: np.ndarray, region: Region, resolution: float | None 
     samples = np.stack([X.ravel()[inside], Y.ravel()[inside]], axis=1)
     # include the boundary vertices: the gap there matters to the tool too
     samples = np.concatenate([samples, np.concatenate(region.loops)])
-    # an unbalanced tree builds 2-3x faster, and the distances are the same
-    dist, _ = cKDTree(np.asarray(uv), balanced_tree=False).query(samples, workers=-1)
-    k = int(np.argmax(dist))
-    return float(dist[k]), samples[k]
+    k, d = _farthest_sample(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(samples))
+    return d, samples[k]
+
+
+def _farthest_sample(pts: np.ndarray, samples: np.ndarray) -> tuple[int, float]:
+    """Index of the sample farthest from its nearest point (the first of equals) and
+    that distance: a grid of cells (:func:`_grid_farthest`), with a KD-tree for the
+    samples the grid leaves open (nearest point beyond its search rings)."""
+    if len(pts) == 0:
+        return 0, float("inf")
+    lo = [min(pts[:, c].min(), samples[:, c].min()) for c in (0, 1)]  # per column: see _cell_size
+    ext = [max(pts[:, c].max(), samples[:, c].max()) - lo[c] for c in (0, 1)]
+    h = max(2.0 * float(np.sqrt(ext[0] * ext[1] / len(pts))), float(max(ext)) / (4.0 * len(pts)), 1e-300)
+    k, d2, open_ = _grid_farthest(pts, samples, float(lo[0]), float(lo[1]), h, 6)
+    best, d = int(k), float(np.sqrt(d2)) if k >= 0 else -1.0
+    idx = np.flatnonzero(open_)
+    if len(idx):
+        # an unbalanced tree builds 2-3x faster, and the distances are the same
+        dist, _ = cKDTree(pts, balanced_tree=False).query(samples[idx], workers=-1)
+        j = int(np.argmax(dist))
+        if dist[j] > d or (dist[j] == d and idx[j] < best):
+            best, d = int(idx[j]), float(dist[j])
+    return best, d
+
+
+@numba.njit(cache=True)
+def _grid_farthest(pts, samples, x0, y0, h, max_ring):
+    """Largest nearest-point distance over the samples, by rings of grid cells.
+
+    Written by hand, not a KD-tree query of every sample (what this was, 0.3-0.6 s
+    at 10^6 points and 400k samples): only the farthest sample matters, and a
+    sample with a point nearer than the farthest one found so far is done at its
+    first ring of cells. Returns the index of the farthest resolved sample (the
+    first of equals; -1 if none), its squared distance, and which samples were
+    left open (no point within ``max_ring`` rings that settles them)."""
+    nx = np.int64(np.floor((max(pts[:, 0].max(), samples[:, 0].max()) - x0) / h)) + 1
+    ny = np.int64(np.floor((max(pts[:, 1].max(), samples[:, 1].max()) - y0) / h)) + 1
+    start = np.zeros(nx * ny + 1, np.int64)
+    cell = np.empty(len(pts), np.int64)
+    for p in range(len(pts)):
+        c = np.int64(np.floor((pts[p, 1] - y0) / h)) * nx + np.int64(np.floor((pts[p, 0] - x0) / h))
+        cell[p] = c
+        start[c + 1] += 1
+    for c in range(nx * ny):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    px = np.empty(len(pts))
+    py = np.empty(len(pts))
+    for p in range(len(pts)):  # the points in cell order, coordinates side by side
+        k = fill[cell[p]]
+        px[k] = pts[p, 0]
+        py[k] = pts[p, 1]
+        fill[cell[p]] = k + 1
+    open_ = np.zeros(len(samples), np.bool_)
+    top, top_d2 = -1, -1.0
+    for q in range(len(samples)):
+        sx, sy = samples[q, 0], samples[q, 1]
+        ci = np.int64(np.floor((sx - x0) / h))
+        cj = np.int64(np.floor((sy - y0) / h))
+        best = np.inf
+        settled = False
+        for r in range(max_ring + 1):
+            for j in range(max(cj - r, 0), min(cj + r, ny - 1) + 1):
+                edge = j == cj - r or j == cj + r
+                i = max(ci - r, 0)
+                while i <= min(ci + r, nx - 1):
+                    c = j * nx + i
+                    for k in range(start[c], start[c + 1]):
+                        dx = px[k] - sx
+                        dy = py[k] - sy
+                        d2 = dx * dx + dy * dy
+                        if d2 < best:
+                            best = d2
+                    if edge or i == ci + r:
+                        i += 1
+                    else:
+                        i = ci + r  # the ring's inner rows: only its two end cells
+            if best <= top_d2:
+                settled = True  # a point nearer than the farthest so far: cannot win
+                break
+            whole = ci - r <= 0 and cj - r <= 0 and ci + r >= nx - 1 and cj + r >= ny - 1
+            reach = r * h * (1.0 - 1e-9)  # every unscanned point is farther (rounding of the cells aside)
+            if whole or best <= reach * reach:
+                settled = True
+                if best > top_d2:
+                    top, top_d2 = q, best
+                break
+        if not settled:
+            open_[q] = True
+    return top, top_d2, open_
 
 
 def _distinct_points(ij: np.ndarray) -> int:
