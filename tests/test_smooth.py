@@ -194,17 +194,39 @@ def test_dwell_times_become_a_feed_schedule():
     assert res["stats"]["duration_s"] == pytest.approx(times.sum(), rel=0.01)
 
 
-def test_schedule_passes_make_up_for_curvature_slowdowns():
+def _rms(rel):
+    return float(np.sqrt(np.mean(np.asarray(rel) ** 2)))
+
+
+def test_the_schedule_model_and_a_corrective_pass_make_up_for_curvature_slowdowns():
+    """Feeds solved from each region's time under the curvature limit meet the times far better than
+    length / time; a corrective pass (only where a region is still off) brings them nearer still."""
+    import polishpath.smooth.interpolate as interp
+    from polishpath.smooth.samples import KernelRun
+
     pts = _walk(80, seed=12)
     curve, u = interpolate_nurbs(pts)
     times = np.full(len(pts), 0.03)  # ~1000 mm/min wanted: the tight turns must be run slower
     one = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
                                       max_feed_mm_min=6000.0, schedule_passes=1)
-    four = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
+    more = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
                                        max_feed_mm_min=6000.0, schedule_passes=4)
-    assert one["stats"]["dwell_time_error_max"] > 0.1
-    assert four["stats"]["dwell_time_error_max"] < 0.5 * one["stats"]["dwell_time_error_max"]
-    assert four["stats"]["chord_error_max"] <= 1e-3 and four["stats"]["feed_max_mm_min"] <= 6000.0 + 1e-9
+    # the nominal schedule: each region's length over its time, as if the curvature limit did not slow it
+    u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
+    rb = interp.dwell_regions(u, u0, u1)
+    nominal_feed = interp.arc_lengths(curve, rb[:-1], rb[1:], split=u) / times
+    kr = KernelRun(interp.INTEGRATORS["taylor"], interp.kernel_curve(curve), u0, u1, rb, nominal_feed, 100.0, 0.002,
+                   1e-3, cap=100_000)
+    list(kr)
+    nominal = np.diff(kr.boundary_times()) / times - 1
+    assert np.abs(nominal).max() > 0.2 and kr.figures()["feed_limited_share"] > 0.05
+    assert one["stats"]["schedule_passes"] == 1
+    assert one["stats"]["dwell_time_error_max"] < 0.5 * np.abs(nominal).max()
+    assert _rms(one["dwell_time_error"]) < 0.5 * _rms(nominal)
+    assert 2 <= more["stats"]["schedule_passes"] <= 4 and more["stats"]["schedule_corrected_regions"] > 0
+    assert _rms(more["dwell_time_error"]) < _rms(one["dwell_time_error"])
+    for res in (one, more):
+        assert res["stats"]["chord_error_max"] <= 1e-3 and res["stats"]["feed_max_mm_min"] <= 6000.0 + 1e-9
 
 
 def test_smooth_stage_on_a_mapped_path():
@@ -344,6 +366,7 @@ def test_samples_near_the_boundary_are_all_found():
 def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypatch):
     """Only one pass's samples are held: when the last pass is worse, the best one's feeds are run again, same bytes."""
     import polishpath.smooth.interpolate as interp
+    from polishpath.smooth.spans import new_state
 
     pts = _walk(80, seed=12)
     curve, u = interpolate_nurbs(pts)
@@ -351,21 +374,50 @@ def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypat
     real = interp.INTEGRATORS["taylor"]
     calls = []
 
-    def spoiled(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap, state, limit):
+    def spoiled(breaks, coeffs, bends, size, u0, u1, rb, rfeed, vmax, T, tol, state, limit, region_times):
         calls.append(np.array(rfeed))
-        if len(calls) == 3:  # the third schedule pass goes badly wrong
+        if len(calls) == 2:  # the corrective pass goes badly wrong
             rfeed = rfeed * 3.0
-        return real(breaks, coeffs, u0, u1, rb, rfeed, vmax, T, tol, cap, state, limit)
+        return real(breaks, coeffs, bends, size, u0, u1, rb, rfeed, vmax, T, tol, state, limit, region_times)
 
     monkeypatch.setitem(interp.INTEGRATORS, "taylor", spoiled)
     res = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
-                                      max_feed_mm_min=6000.0, schedule_passes=3)
-    assert len(calls) == 4 and res["stats"]["schedule_passes"] == 3
-    best = 1 if np.array_equal(calls[3], calls[1]) else 0
-    assert np.array_equal(calls[3], calls[best])  # the best pass's own feeds, run again
+                                      max_feed_mm_min=6000.0, schedule_passes=2)
+    assert len(calls) == 3 and res["stats"]["schedule_passes"] == 2
+    assert not np.array_equal(calls[1], calls[0]) and np.array_equal(calls[2], calls[0])  # pass 1 run again
+    assert np.array_equal(res["region_feed"], calls[0])
     monkeypatch.setitem(interp.INTEGRATORS, "taylor", real)
-    breaks, coeffs, _ = interp._kernel_coeffs(curve)
+    kc = interp.kernel_curve(curve)
     u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
-    want = real(breaks, coeffs, u0, u1, interp.dwell_regions(u, u0, u1), calls[best], 100.0, 0.002, 1e-3, 1024,
-                np.zeros(interp.STATE_SIZE), -1)
+    rb = interp.dwell_regions(u, u0, u1)
+    want = real(kc.breaks, kc.coeffs, kc.bends, kc.size, u0, u1, rb, calls[0], 100.0, 0.002, 1e-3, new_state(),
+                10**6, np.zeros(len(rb)))
     assert np.array_equal(res["params"], want[0]) and np.array_equal(res["samples"], want[1])
+    one = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
+                                      max_feed_mm_min=6000.0, schedule_passes=1)
+    assert np.array_equal(one["params"], res["params"]) and one["stats"]["dwell_time_error_max"] == \
+        res["stats"]["dwell_time_error_max"]
+
+
+def test_dwell_times_are_met_better_than_the_fixed_point_schedule_did():
+    """The mapped cap path at 1200 mm/min, 4 ms, 1 um: before the schedule model (three fixed-point passes)
+    the regions of its pieces missed their time by up to 12.9 % (p99 11.0 %, RMS 2.02 %); now by under 5 %.
+    (A one-point piece has no length to run its time along: its region is left out of the largest.)"""
+    cap = spherical_cap(n_r=12, n_phi=40)
+    sp = map_to_surface(cap, serpentine_path(cap, 1.5, seed=11))
+    tp = smooth(sp, feed_mm_min=1200.0, period_ms=4.0, chord_tol_mm=1e-3)
+    st = tp.stats
+    assert st["dwell_time_error_p99"] < 0.05 and st["dwell_time_error_rms"] < 0.0202
+    assert st["schedule_passes"] <= 2 and st["chord_error_max"] <= 1e-3
+    pieces, off = sp.planar.pieces, st["piece_params"]
+    worst = 0.0
+    for k in range(len(pieces) - 1):
+        sl = slice(pieces[k], pieces[k + 1])
+        if pieces[k + 1] - pieces[k] < 2:
+            continue
+        res = interpolate_constant_period(tp.curve, 1200.0, 4.0, 1e-3, dwell_params=tp.dwell_params[sl],
+                                          dwell_times=tp.dwell_times[sl], max_feed_mm_min=6000.0,
+                                          u_range=(off[k], np.nextafter(off[k + 1], -np.inf)))
+        assert np.array_equal(res["params"], tp.sample_params[st["sample_pieces"][k]:st["sample_pieces"][k + 1]])
+        worst = max(worst, float(np.abs(res["dwell_time_error"]).max()))
+    assert 0 < worst < 0.05

@@ -19,7 +19,7 @@ from polishpath.errors import ParameterError, SmoothingError
 from polishpath.mapping import map_to_surface
 from polishpath.smooth import iter_sample_chunks, smooth
 from polishpath.smooth.samples import KernelRun
-from polishpath.smooth.spans import new_state
+from polishpath.smooth.spans import ST_CE_MAX, ST_DONE, ST_FALLBACKS, chord_errors_kernel, new_state
 from polishpath.types import SampleChunk, SampleSchedule, ToolPath
 from test_mapping_helpers import serpentine_path, spherical_cap
 
@@ -55,20 +55,26 @@ def test_resumed_kernel_calls_give_the_samples_of_one_call(integrator, size):
     rng = np.random.default_rng(5)
     pts = np.cumsum(rng.normal(scale=0.5, size=(40, 3)), axis=0)
     curve, u = interp_nurbs(pts)
-    breaks, cf, _ = interp._kernel_coeffs(curve)
+    kc = interp.kernel_curve(curve)
     u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
     rb = interp.dwell_regions(u, u0, u1)
     rfeed = rng.uniform(5.0, 40.0, size=len(u))
     kernel = interp.integrator_kernel(integrator)
-    whole = kernel(breaks, cf, u0, u1, rb, rfeed, 50.0, 0.002, 1e-3, 1024, new_state(), -1)
-    run = KernelRun(kernel, breaks, cf, u0, u1, rb, rfeed, 50.0, 0.002, 1e-3, size=size)
+    state, times = new_state(), np.zeros(len(rb))
+    whole = kernel(kc.breaks, kc.coeffs, kc.bends, kc.size, u0, u1, rb, rfeed, 50.0, 0.002, 1e-3, state, 10**6, times)
+    assert state[ST_DONE] == 1.0
+    run = KernelRun(kernel, kc, u0, u1, rb, rfeed, 50.0, 0.002, 1e-3, size=size)
     parts = list(run)
     assert all(1 <= len(p[0]) <= size for p in parts)
     for j in range(3):
         assert np.array_equal(np.concatenate([p[j] for p in parts]), whole[j])
-    assert run.pred_max == whole[3] and run.fallbacks == whole[4]
+    # the figures the kernel accumulates are the same, bit for bit, whatever the chunks
+    assert np.array_equal(run.state, state) and np.array_equal(run.times, times)
+    # ... and the figures are those of the samples: the chord errors and the region times measured afterwards
+    assert state[ST_CE_MAX] == chord_errors_kernel(kc.breaks, kc.coeffs, whole[0], whole[1], 3).max()
+    assert np.array_equal(run.boundary_times(), np.interp(rb, whole[0], np.arange(len(whole[0])) * 0.002))
     if integrator == "ab-am":
-        assert whole[4] < len(whole[0]) - 1  # the multistep history is used (and carried), not restarted
+        assert state[ST_FALLBACKS] < len(whole[0]) - 1  # the multistep history is used (and carried), not restarted
 
 
 def interp_nurbs(pts):

@@ -240,7 +240,7 @@ def smooth(
     degree: int = 3,
     parametrization: str = "chord",
     deviation_samples: int = 20000,
-    schedule_passes: int = 3,
+    schedule_passes: int = 2,
     integrator: str = DEFAULT_INTEGRATOR,
     keep_samples: bool = True,
     chunk_samples: int = DEFAULT_STREAM_SAMPLES,
@@ -274,8 +274,10 @@ def smooth(
     deviation_samples : int
         Most dwell intervals checked for the deviation figures.
     schedule_passes : int
-        Interpolation runs used to correct the feed schedule where the curvature
-        limit slows the tool (see :func:`interpolate_constant_period`).
+        Most interpolation runs per piece: the first at the feeds solved from
+        each region's time under the curvature limit, a further one only
+        where regions are still off their time (see
+        :func:`interpolate_constant_period`).
     integrator : {"taylor", "ab-am"}
         How the parameter advances each period: second-order Taylor predictor
         with an exact chord corrector (default), or the paper's Adams-Bashforth /
@@ -385,7 +387,7 @@ def smooth(
         if len(curves) > 1:
             progress.update(int(pieces[k + 1]), n, f"dwell points ({spieces[-1]:,} samples)")
         for key, val in res["stats"].items():
-            if key in ("n_samples", "duration_s", "curve_length", "interpolation_s"):
+            if key in ("n_samples", "duration_s", "curve_length", "interpolation_s", "schedule_corrected_regions"):
                 agg[key] = agg.get(key, 0) + val
             elif key.endswith("_min_mm_min"):
                 agg[key] = min(agg.get(key, np.inf), val)

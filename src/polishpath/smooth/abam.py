@@ -53,8 +53,9 @@ import math
 import numba
 import numpy as np
 
-from .spans import (DIM, checked_deviation, chord_step, grow, nudge, region_at, safe_tolerance, span_at,
-                    span_bend_bounds, span_derivs, span_of, span_point, step_feed)
+from .spans import (DIM, ST_CE_MAX, ST_COUNT, ST_DONE, ST_FALLBACKS, ST_G, ST_H, ST_NH, ST_PRED_MAX, ST_U,
+                    chord_deviation, chord_step, figure_error, nudge, record_step, region_at, safe_tolerance, span_at,
+                    span_derivs, span_of, span_point, start_piece, step_error, step_feed)
 
 __all__ = ["abam_kernel", "adams_weights", "GUARD", "CHORD_GUARD"]
 
@@ -64,17 +65,12 @@ CHORD_GUARD = 0.02
 """Largest relative miss of a Runge-Kutta step's chord before the safeguard step."""
 
 
-@numba.njit(cache=True)
-def adams_weights(nodes):  # pragma: no cover - numba
-    """Integral over [0, 1] of each Lagrange basis polynomial on four nodes, (4,).
-
-    ``nodes`` are the sample positions in units of the step (0 is the current
-    sample; the earlier ones negative; 1 the predicted end for the corrector).
-    The Adams step is ``L * sum_j w_j g_j``.
-    """
-    w = np.empty(4)
+@numba.njit(cache=True, _nrt=False)
+def adams_weights_into(nodes, w, c):  # pragma: no cover - numba
+    """:func:`adams_weights` into the (4,) buffer ``w`` (``c``: (4,) scratch), allocating nothing."""
     for j in range(4):
-        c = np.zeros(4)
+        for k in range(4):
+            c[k] = 0.0
         c[0] = 1.0
         den = 1.0
         deg = 0
@@ -89,10 +85,22 @@ def adams_weights(nodes):  # pragma: no cover - numba
             deg += 1
             den *= nodes[j] - a
         w[j] = (c[0] + c[1] / 2.0 + c[2] / 3.0 + c[3] / 4.0) / den
-    return w
 
 
 @numba.njit(cache=True)
+def adams_weights(nodes):  # pragma: no cover - numba
+    """Integral over [0, 1] of each Lagrange basis polynomial on four nodes, (4,).
+
+    ``nodes`` are the sample positions in units of the step (0 is the current
+    sample; the earlier ones negative; 1 the predicted end for the corrector).
+    The Adams step is ``L * sum_j w_j g_j``.
+    """
+    w = np.empty(4)
+    adams_weights_into(nodes, w, np.empty(4))
+    return w
+
+
+@numba.njit(cache=True, _nrt=False)
 def _inv_speed(breaks, coeffs, s, u, u1, w0, c1, w2):  # pragma: no cover - numba
     # g(u) = 1 / |C'(u)| at u (clamped to the end of the piece); inf where the curve has no speed;
     # w0, c1, w2: (d,) scratch buffers
@@ -105,20 +113,21 @@ def _inv_speed(breaks, coeffs, s, u, u1, w0, c1, w2):  # pragma: no cover - numb
 
 
 @numba.njit(cache=True)
-def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol, cap, state, limit):  # pragma: no cover
+def abam_kernel(breaks, coeffs, bends, size, u0, u1, region_b, region_feed, vmax, period_s, tol, state, limit,
+                region_times):  # pragma: no cover
     """Constant-period samples of ``[u0, u1]`` by the Adams-Bashforth-Moulton integrator.
 
-    Same arguments and returns as :func:`.taylor.taylor_kernel`; ``predictor_max``
-    is the largest ``|chord / (V T) - 1|`` of the Adams (or starting) step before
-    any safeguard, ``fallbacks`` the number of safeguard steps. A multistep
+    Same arguments and returns as :func:`.taylor.taylor_kernel`; the state's
+    predictor figure is the largest ``|chord / (V T) - 1|`` of the Adams (or
+    starting) step before any safeguard, its fallbacks the safeguard steps. A multistep
     method: ``state`` carries its history (the last ``1/|C'|`` values and step
     lengths) from one call to the next, so resumed calls give the samples of
     one call bit for bit.
     """
     d = DIM
-    bends, size = span_bend_bounds(breaks, coeffs)  # proves most steps under the tolerance unmeasured
     safe = safe_tolerance(tol, size)
-    cap = max(int(cap), 16)
+    margin = 1e-9 * max(size, 1.0)
+    cap = max(int(limit), 1)
     out_u = np.empty(cap)
     out_p = np.empty((cap, d))
     out_v = np.empty(cap)
@@ -132,8 +141,8 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
     w1 = np.empty(d)
     w2 = np.empty(d)
     nreg = region_feed.shape[0]
-    fresh = state[0] == 0.0
-    u = u0 if fresh else state[1]
+    fresh = state[ST_COUNT] == 0.0
+    u = u0 if fresh else state[ST_U]
     s = span_at(breaks, u)
     r = region_at(region_b, nreg, u)
     # history, newest first: g at the last four samples, arc length of the last three steps
@@ -141,30 +150,33 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
     H = np.zeros(3)
     nh = 0
     n = 0
+    k0 = int(state[ST_COUNT])  # samples before this call
     if fresh:
         span_derivs(breaks, coeffs, s, u, pa, c1, c2)
         out_u[0] = u
         for j in range(d):
             out_p[0, j] = pa[j]
         out_v[0] = min(region_feed[r], vmax)
+        state[ST_U] = u
+        start_piece(state, region_b, region_times, out_v[0])
         n = 1
     else:
         # as the previous call left it: C(u) as its last step computed it, C' and C'' there, the history
         span_point(breaks, coeffs, s, u, pa)
         span_derivs(breaks, coeffs, s, u, w0, c1, c2)
         for k in range(4):
-            G[k] = state[3 + k]
+            G[k] = state[ST_G + k]
         for k in range(3):
-            H[k] = state[7 + k]
-        nh = int(state[10])
+            H[k] = state[ST_H + k]
+        nh = int(state[ST_NH])
     guard = 0
-    pred_max = 0.0
-    fallbacks = 0
     ab_nodes = np.zeros(4)
     am_nodes = np.zeros(4)
+    w = np.zeros(4)
+    wc = np.zeros(4)
     more = False
     while u < u1:
-        if limit >= 0 and n >= limit:
+        if n >= cap:
             more = True
             break
         guard += 1
@@ -187,7 +199,8 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
         if nh == 0:
             G[0] = 1.0 / sp
             nh = 1
-        v = step_feed(min(region_feed[r], vmax), sp2, acc2, dot, period_s, tol)
+        sched = min(region_feed[r], vmax)
+        v = step_feed(sched, sp2, acc2, dot, period_s, tol)
         ln = v * period_s
         if nh >= 4 and ln > 2.0 * H[0]:
             G[0] = 1.0 / sp
@@ -195,20 +208,22 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
         last = False
         restart = False
         un = u
+        err = 0.0
+        measured = False
         for _ in range(60):
             if nh >= 4:
                 ab_nodes[0] = 0.0
                 ab_nodes[1] = -H[0] / ln
                 ab_nodes[2] = ab_nodes[1] - H[1] / ln
                 ab_nodes[3] = ab_nodes[2] - H[2] / ln
-                w = adams_weights(ab_nodes)
+                adams_weights_into(ab_nodes, w, wc)
                 up = u + ln * (w[0] * G[0] + w[1] * G[1] + w[2] * G[2] + w[3] * G[3])
                 gp = _inv_speed(breaks, coeffs, s, up, u1, w0, w1, w2)
                 am_nodes[0] = 1.0
                 am_nodes[1] = 0.0
                 am_nodes[2] = ab_nodes[1]
                 am_nodes[3] = ab_nodes[2]
-                w = adams_weights(am_nodes)
+                adams_weights_into(am_nodes, w, wc)
                 un = u + ln * (w[0] * gp + w[1] * G[0] + w[2] * G[1] + w[3] * G[2])
                 # predictor-corrector gap as a share of the step (Milne's device)
                 gap = abs(un - up) * sp / ln
@@ -231,8 +246,8 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
                 act = math.sqrt(act)
                 if un < u1:
                     miss = abs(act / ln - 1.0)
-                    if miss > pred_max:
-                        pred_max = miss
+                    if miss > state[ST_PRED_MAX]:
+                        state[ST_PRED_MAX] = miss
                     # compare with the chord of a circular arc of length L at the start's curvature
                     lk = ln * kap
                     if lk >= 2.0:
@@ -245,12 +260,12 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
                 un, _ = chord_step(breaks, coeffs, s, u, u1, pa, ln, ln / sp, pb)
                 restart = True
             last = un >= u1
-            err = checked_deviation(breaks, coeffs, bends, safe, s, u, un, pa, pb, w0)
+            err, measured = step_error(breaks, coeffs, bends, safe, s, u, un, pa, pb, w0)
             if err <= tol:
                 break
-            # shorten: the chord error grows with the square of the step
-            f = 0.9 * math.sqrt(tol / err)
-            ln *= min(f, 0.9)
+            # shorten: the chord error grows with the square of the step (aim just under the tolerance)
+            f = math.sqrt(0.98 * tol / err)
+            ln *= min(f, 0.99)
             v = ln / period_s
             last = False
             restart = False
@@ -258,14 +273,15 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
             un = nudge(breaks, coeffs, s, u, u0, u1, pb)
             last = un >= u1
             restart = True
+            err, measured = chord_deviation(breaks, coeffs, s, u, un, pa, pb, w0), True
         if restart:
-            fallbacks += 1
-        if n >= out_u.shape[0]:
-            out_u, out_p, out_v = grow(out_u, out_p, out_v, n)
+            state[ST_FALLBACKS] += 1.0
+        ce = figure_error(breaks, coeffs, s, u, un, pa, pb, w0, err, measured, state[ST_CE_MAX], margin)
         out_u[n] = un
         for j in range(d):
             out_p[n, j] = pb[j]
         out_v[n] = v
+        record_step(state, region_b, region_times, k0 + n, u, un, pa, pb, v, sched, period_s, ce)
         n += 1
         sn = span_of(breaks, s, un)
         span_derivs(breaks, coeffs, sn, un, w0, c1, c2)
@@ -284,15 +300,17 @@ def abam_kernel(breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, t
             H[0] = ln
             nh = min(nh + 1, 4)
         u = un
-        pa, pb = pb, pa  # the step's end is the next step's start
+        # the step's end is the next step's start (copied: rebinding arrays costs atomic refcounts)
+        for j in range(d):
+            pa[j] = pb[j]
         if last:
             break
-    state[0] += n
-    state[1] = u
-    state[2] = 0.0 if more else 1.0
+    state[ST_COUNT] += n
+    state[ST_U] = u
+    state[ST_DONE] = 0.0 if more else 1.0
     for k in range(4):
-        state[3 + k] = G[k]
+        state[ST_G + k] = G[k]
     for k in range(3):
-        state[7 + k] = H[k]
-    state[10] = nh
-    return out_u[:n], out_p[:n], out_v[:n], pred_max, fallbacks
+        state[ST_H + k] = H[k]
+    state[ST_NH] = nh
+    return out_u[:n], out_p[:n], out_v[:n]

@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
+from typing import NamedTuple
 
 import numpy as np
 
@@ -39,13 +41,17 @@ from ..defaults import DEFAULT_INTEGRATOR
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve
 from .abam import abam_kernel
-from .samples import DEFAULT_STREAM_SAMPLES, KernelRun, PieceFigures
-from .spans import DIM, STATE_SIZE, chord_errors_kernel
+from .samples import DEFAULT_STREAM_SAMPLES, KernelRun
+from .spans import DIM, STATE_SIZE, chord_errors_kernel, span_bend_bounds
+from .timing import DEFAULT_ORDER, corrected_targets, solve_region_feeds
 from .nurbs import evaluate, span_polynomials
 from .taylor import taylor_kernel
 
 __all__ = ["arc_lengths", "dwell_regions", "interpolate_constant_period", "chord_errors", "INTEGRATORS",
-           "DEFAULT_INTEGRATOR", "integrator_kernel"]
+           "DEFAULT_INTEGRATOR", "integrator_kernel", "kernel_curve", "KernelCurve", "DWELL_TIME_TOL"]
+
+DWELL_TIME_TOL = 0.01
+"""Relative miss of a region's time beyond which a corrective schedule pass runs (where a faster feed is possible)."""
 
 INTEGRATORS = {"taylor": taylor_kernel, "ab-am": abam_kernel}
 """Name -> compiled kernel; every kernel takes and returns the same arrays (see :func:`.taylor.taylor_kernel`).
@@ -108,6 +114,32 @@ def _kernel_coeffs(curve: NurbsCurve) -> tuple[np.ndarray, np.ndarray, int]:
     return breaks, np.ascontiguousarray(coeffs), d
 
 
+class KernelCurve(NamedTuple):
+    """A curve as the kernels take it: spans, 3-coordinate coefficients, bend bounds, size; ``d`` its own coordinates."""
+
+    breaks: np.ndarray
+    coeffs: np.ndarray
+    bends: np.ndarray
+    size: float
+    d: int
+
+
+def kernel_curve(curve: NurbsCurve) -> KernelCurve:
+    """The curve's spans and their bend bounds for the kernels (:func:`.spans.span_bend_bounds`), once per curve."""
+    hit = _KC_CACHE.get(id(curve))
+    if hit is not None and hit[0]() is curve:
+        return hit[1]
+    breaks, coeffs, d = _kernel_coeffs(curve)
+    bends, size = span_bend_bounds(breaks, coeffs)
+    kc = KernelCurve(breaks, coeffs, bends, float(size), d)
+    _KC_CACHE[id(curve)] = (weakref.ref(curve), kc)
+    weakref.finalize(curve, _KC_CACHE.pop, id(curve), None)
+    return kc
+
+
+_KC_CACHE: dict = {}
+
+
 def _padded(points: np.ndarray) -> np.ndarray:
     """(M, d) points as (M, 3), zero coordinates appended."""
     d = points.shape[1]
@@ -166,7 +198,7 @@ def interpolate_constant_period(
     dwell_times: np.ndarray | None = None,
     max_feed_mm_min: float | None = None,
     u_range: tuple[float, float] | None = None,
-    schedule_passes: int = 3,
+    schedule_passes: int = 2,
     integrator: str = DEFAULT_INTEGRATOR,
     keep_samples: bool = True,
     chunk_samples: int = DEFAULT_STREAM_SAMPLES,
@@ -194,10 +226,14 @@ def interpolate_constant_period(
     u_range : (float, float), optional
         Part of the curve to run (default: all of it).
     schedule_passes : int
-        With dwell times: most interpolation runs; after each, the feed of every
-        region that took too long (slowed by the curvature limit) is raised in
-        proportion, so the time spent around each dwell point approaches the
-        wish (within the machine feed limit).
+        With dwell times: most interpolation runs. The first runs the feeds
+        solved from each region's time under the curvature limit
+        (:func:`.timing.solve_region_feeds`); each further run corrects the
+        regions still off their time by more than :data:`DWELL_TIME_TOL` by the
+        previous run's own miss, and runs only while some region is (the stats
+        say how many ran, ``schedule_passes``, and how many regions the last
+        correction moved, ``schedule_corrected_regions``); the run with the
+        smallest RMS relative miss is kept.
     integrator : {"taylor", "ab-am"}
         How the parameter advances each period (:data:`INTEGRATORS`).
     keep_samples : bool
@@ -241,22 +277,24 @@ def interpolate_constant_period(
     kernel = integrator_kernel(integrator)
     if not np.all(curve.weights == 1.0):
         raise SmoothingError("Constant-period interpolation supports non-rational curves (weights 1) only.")
-    breaks, cf, d = _kernel_coeffs(curve)
+    kc = kernel_curve(curve)
+    d = kc.d
     u0, u1 = (float(curve.knots[0]), float(curve.knots[-1])) if u_range is None else map(float, u_range)
     T = period_ms / 1000.0
     vmax = (max_feed_mm_min if max_feed_mm_min is not None else np.inf) / 60.0
+    gx, gw = np.polynomial.legendre.leggauss(DEFAULT_ORDER)
     if dwell_times is not None:
         if dwell_params is None:
             raise ParameterError("dwell_times need dwell_params (the curve parameter of each dwell point).")
         dt = np.asarray(dwell_times, dtype=np.float64)
-        dp = np.asarray(dwell_params, dtype=np.float64)
+        dp = np.ascontiguousarray(dwell_params, dtype=np.float64)
         if dt.shape != dp.shape:
             raise ParameterError(f"dwell_times has shape {dt.shape} but there are {dp.shape} dwell points.")
         if not np.all(dt > 0) or not np.all(np.isfinite(dt)):
             raise ParameterError("Every dwell time must be a positive number of seconds.")
         rb = dwell_regions(dp, u0, u1)
-        rl = arc_lengths(curve, rb[:-1], rb[1:], split=dp, order=3)
-        rfeed = rl / dt  # mm/s
+        # each region's feed from its time under the curvature limit, before any sample (timing.py)
+        rfeed, model, rl = solve_region_feeds(kc.breaks, kc.coeffs, rb, dp, dt, vmax, T, chord_tol_mm, gx, gw)
     else:
         rb = np.array([u0, u1])
         rfeed = np.array([feed_mm_min / 60.0])
@@ -268,89 +306,81 @@ def interpolate_constant_period(
     size = int(chunk_samples) if chunked else None
 
     def run(feed, room):
-        """One interpolation run: (figures, samples or None, kernel run); figures accumulated chunk by
-        chunk when no sample is kept (every run's: the best run's are the result), else after the run."""
-        kr = KernelRun(kernel, breaks, cf, u0, u1, rb, feed, vmax, T, chord_tol_mm, size=size, cap=room)
-        fig = PieceFigures(breaks, cf, rb, feed, vmax, T, on_chunk=chunk_check() if chunk_check else None)
-        if chunked:
-            for chunk in kr:
-                fig.add(*chunk)
-            return fig, None, kr
-        ((pu_, pp_, pv_),) = list(kr)
-        return fig, (pu_, pp_, pv_), kr
+        """One interpolation run: (kernel run with its figures, samples or None, its check or None)."""
+        kr = KernelRun(kernel, kc, u0, u1, rb, feed, vmax, T, chord_tol_mm, size=size, cap=room)
+        check = chunk_check() if (chunk_check is not None and chunked) else None
+        held = None
+        for chunk in kr:
+            if check is not None:
+                check(chunk[1])
+            if not chunked:
+                held = chunk
+        if held is None and not chunked:
+            held = (np.zeros(0), np.zeros((0, DIM)), np.zeros(0))
+        return kr, held, check
 
-    fig, held_samples, kr = run(rfeed, cap)
-    pred_max = kr.pred_max
-    passes = 1
-
-    def boundary_times(fig_, smp):
-        if smp is None:
-            return fig_.boundary_times()
-        return np.interp(rb, smp[0], np.arange(len(smp[0])) * T)
-
-    progress.update(fig.n if chunked else len(held_samples[0]), None, "samples in schedule pass 1")
-    best_fig, best_run, best_feed = fig, kr, rfeed
+    kr, held, check = run(rfeed, cap)
+    passes, corrected = 1, 0
+    progress.update(kr.n, None, "samples in schedule pass 1")
+    best = (kr, held, check, rfeed)
     if dwell_times is not None:
-        # Where the curvature limit slows the tool, a region takes longer than wanted; raise
-        # that region's feed on its unconstrained part (damped fixed point
-        # f <- f * (spent / wanted)^0.7, capped by the machine limit) and run again; keep
-        # the run whose worst region is best.
-        def worst(tb):
-            spent_ = np.diff(tb)
-            return spent_ / dt, float(np.max(np.abs(spent_ / dt - 1)))
+        # The model leaves what it does not see: a step keeps its start's feed over the period,
+        # the chord-error check shortens steps the circle's estimate let through. Where a run's
+        # region times are off by more than DWELL_TIME_TOL (and a faster feed is possible), the
+        # targets are corrected by the run's own miss and the run made again; the run whose
+        # region times are nearest (RMS) is kept. Only one run's samples are held at a time:
+        # the best run is run again at the end when a later one was worse (the kernel is
+        # deterministic: the same samples, bit for bit); without samples its figures are kept.
+        def misses(kr_):
+            spent_ = np.diff(kr_.boundary_times())
+            return spent_, spent_ / dt - 1.0
 
-        # Only one run's samples are held at a time: the best run's feeds are kept, and the
-        # best run is run again at the end when a later one was worse (the kernel is
-        # deterministic: the same samples, bit for bit). Without samples, the best run's figures are kept.
-        rel, err = worst(boundary_times(fig, held_samples))
-        best_err, best_pass, held = err, 1, True
-        n_last = fig.n if chunked else len(held_samples[0])
+        spent, rel = misses(kr)
+        best_rms = float(np.sqrt(np.mean(rel**2)))
+        feeds_now, model_now = rfeed, model
         for _ in range(max(0, int(schedule_passes) - 1)):
-            if err < 0.01:
+            off = (np.abs(rel) > DWELL_TIME_TOL) & ~((rel > 0) & (feeds_now >= vmax * (1 - 1e-12)))
+            if not off.any():
                 break
-            new_feed = np.minimum(rfeed * np.clip(rel, 0.5, 2.0) ** 0.7, vmax)
-            if np.allclose(new_feed, rfeed, rtol=1e-3):
-                break
-            rfeed = new_feed
-            room = int(1.02 * n_last) + 1024
-            held_samples = None
-            fig, held_samples, kr = run(rfeed, room)
-            pred_max = max(pred_max, kr.pred_max)
+            f_new, m_new, _ = solve_region_feeds(kc.breaks, kc.coeffs, rb, dp, corrected_targets(dt, spent, model_now),
+                                                 vmax, T, chord_tol_mm, gx, gw)
+            feeds_now = np.where(off, f_new, feeds_now)
+            model_now = np.where(off, m_new, model_now)
+            corrected = int(np.count_nonzero(off))
+            kr, held, check = None, None, None  # one run's samples at a time: the best's go too
+            best = (best[0], None, best[2], best[3])
+            kr, held, check = run(feeds_now, int(1.02 * best[0].n) + 1024)
             passes += 1
-            n_last = fig.n if chunked else len(held_samples[0])
-            progress.update(n_last, None, f"samples in schedule pass {passes}")
-            rel, err = worst(boundary_times(fig, held_samples))
-            held = err < best_err
-            if held:
-                best_err, best_feed, best_pass, best_fig, best_run = err, rfeed, passes, fig, kr
-        if not held and not chunked:
-            room = int(1.02 * n_last) + 1024
-            held_samples = None
-            best_fig, held_samples, best_run = run(best_feed, room)
-            progress.update(len(held_samples[0]), None, f"samples of schedule pass {best_pass} (the best), run again")
+            progress.update(kr.n, None, f"samples in schedule pass {passes}")
+            spent, rel = misses(kr)
+            rms = float(np.sqrt(np.mean(rel**2)))
+            if rms < best_rms:
+                best_rms, best = rms, (kr, held, check, feeds_now)
+        if not chunked and best[1] is None:
+            held = None
+            kr, held, _ = run(best[3], int(1.02 * best[0].n) + 1024)
+            best = (kr, held, None, best[3])
+            progress.update(kr.n, None, "samples of the best schedule pass, run again")
     t_interp = time.perf_counter() - t_start
-    if not chunked:
-        pu, pp, pv = held_samples
-        best_fig.add(pu, pp, pv)
-    else:
+    kr, held, check, best_feed = best
+    if chunked:
         pu, pp, pv = np.zeros(0), np.zeros((0, DIM)), np.zeros(0)
-    n_fb = best_run.fallbacks
-    n_smp = best_fig.n
-    stats = {
-        "n_samples": int(n_smp),
-        "chord_tol_mm": float(chord_tol_mm),
-        "predictor_fluctuation_max": float(pred_max),
-        "fallback_share": float(n_fb / max(n_smp - 1, 1)),
-        "integrator": integrator,
-        "schedule_passes": passes,
-        "interpolation_s": float(t_interp),
-    }
-    stats.update(best_fig.stats())
-    stats["curve_length"] = float(rl.sum()) if dwell_times is not None else float(best_fig.length)
+    else:
+        pu, pp, pv = held
+        if chunk_check is not None:
+            check = chunk_check()
+            check(pp)
+    figs = kr.figures()
+    length = figs.pop("steps_length_mm")
+    stats = {"n_samples": figs.pop("n_samples"), "chord_tol_mm": float(chord_tol_mm), "integrator": integrator,
+             "schedule_passes": passes, "schedule_corrected_regions": corrected, "interpolation_s": float(t_interp)}
+    stats.update(figs)
+    stats["curve_length"] = float(rl.sum()) if dwell_times is not None else length
     out = {"samples": pp[:, :d], "params": pu, "feed_mm_min": pv * 60.0, "stats": stats,
-           "region_bounds": rb, "region_feed": best_feed, "u_range": (u0, u1), "chunk_check": best_fig.on_chunk}
+           "region_bounds": rb, "region_feed": np.asarray(best_feed, dtype=np.float64), "u_range": (u0, u1),
+           "chunk_check": check}
     if dwell_times is not None:
-        spent = np.diff(best_fig.boundary_times())
+        spent = np.diff(kr.boundary_times())
         rel = (spent - dt) / dt
         stats["dwell_time_error_max"] = float(np.max(np.abs(rel)))
         out["dwell_time_error"] = rel

@@ -9,11 +9,11 @@ that resumes from the state the previous one left gives the same samples as one
 call over the piece), so the samples can be regenerated in chunks of bounded
 size whenever they are needed:
 
-* :class:`KernelRun` — one piece run by a kernel, chunk by chunk (or in one call);
-* :class:`PieceFigures` — the interpolation figures of one piece (chord error,
-  feed fluctuation, feed-limited share, feeds, the time at each dwell-region
-  boundary ...) accumulated over the chunks in order, so that a job that keeps
-  no sample reports the same figures as one that keeps them all;
+* :class:`KernelRun` — one piece run by a kernel, chunk by chunk (or in one
+  go), with the interpolation figures of the piece (chord error, feed
+  fluctuation, feed-limited share, feeds, the time at each dwell-region
+  boundary ...) that the kernel accumulates in its state as it goes, so that a
+  job that keeps no sample reports the same figures as one that keeps them all;
 * :func:`iter_sample_chunks` — a ToolPath's samples as
   :class:`~polishpath.types.SampleChunk` s, from its curve and schedule.
 
@@ -22,159 +22,102 @@ Units: mm, mm/s inside (mm/min in the chunks' ``feed_mm_min``), s.
 
 from __future__ import annotations
 
-from typing import Callable, Iterator
+from typing import Iterator
 
 import numpy as np
 
 from ..errors import ParameterError, SmoothingError
 from ..types import SampleChunk, ToolPath
-from .spans import chord_errors_kernel, new_state
+from .spans import (ST_CE_MAX, ST_COUNT, ST_DONE, ST_FALLBACKS, ST_FL_MAX, ST_FL_N, ST_FL_SQ, ST_JB, ST_LENGTH,
+                    ST_LIMITED, ST_PRED_MAX, ST_V_MAX, ST_V_MIN, new_state)
 
-__all__ = ["KernelRun", "PieceFigures", "iter_sample_chunks", "DEFAULT_STREAM_SAMPLES"]
+__all__ = ["KernelRun", "iter_sample_chunks", "DEFAULT_STREAM_SAMPLES"]
 
 #: samples per chunk when a piece is run without holding its samples (about 10 MB of arrays)
 DEFAULT_STREAM_SAMPLES = 1 << 18
 
 
 class KernelRun:
-    """One piece run by an integrator kernel, in chunks of at most ``size`` samples (None: one call).
+    """One piece run by an integrator kernel, in chunks of at most ``size`` samples (None: in one go).
 
     Iterating yields ``(params (m,), points (m, 3) mm, feeds (m,) mm/s)`` in path
-    order; afterwards ``pred_max`` and ``fallbacks`` hold the kernel's figures
-    over the whole piece.
-    """
-
-    def __init__(self, kernel, breaks, coeffs, u0, u1, region_b, region_feed, vmax, period_s, tol,
-                 size: int | None = None, cap: int = 1024):
-        self.args = (breaks, coeffs, float(u0), float(u1), np.ascontiguousarray(region_b, dtype=np.float64),
-                     np.ascontiguousarray(region_feed, dtype=np.float64), float(vmax), float(period_s), float(tol))
-        self.kernel = kernel
-        self.size = size
-        self.cap = cap
-        self.pred_max = 0.0
-        self.fallbacks = 0
-
-    def __iter__(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        state = new_state()
-        size = -1 if self.size is None else int(self.size)
-        cap = self.cap if self.size is None else size
-        while state[2] == 0.0:
-            before = state[0]
-            pu, pp, pv, pm, nfb = self.kernel(*self.args, cap, state, size)
-            self.pred_max = max(self.pred_max, float(pm))
-            self.fallbacks += int(nfb)
-            if len(pu):
-                yield pu, pp, pv
-            elif state[0] == before:  # cannot happen (a kernel emits or finishes); never loop on it
-                break
-
-
-class PieceFigures:
-    """The interpolation figures of one piece, accumulated over its samples chunk after chunk.
-
-    ``add`` takes consecutive chunks of the piece in order; the step between two
-    chunks is measured with the previous chunk's last sample. The figures are
-    the same, bit for bit, whatever the chunks, except the sums (the RMS
-    fluctuation, a curve length measured from the steps), whose order changes
-    (equal to about 1e-15 relative).
+    order (in one go: one chunk, unless the room ``cap`` was short, when the
+    rest follows in further resumed calls). Afterwards :meth:`figures` and
+    :meth:`boundary_times` give the run's figures, accumulated by the kernel in
+    its state whatever the chunks (the same sums in the same order, so the same
+    figures bit for bit).
 
     Parameters
     ----------
-    breaks, coeffs
-        The curve's spans (:func:`.interpolate._kernel_coeffs`).
-    region_b : (R + 1,) float
-        Dwell-region boundaries of the piece.
-    region_feed : (R,) float
-        Scheduled feed of each region, mm/s.
-    vmax : float
-        Machine feed limit, mm/s.
-    period_s : float
-        Interpolation period, s.
-    on_chunk : callable, optional
-        Called with each chunk's points (m, 3) (e.g. the boundary check).
+    kernel
+        An integrator kernel (:data:`.interpolate.INTEGRATORS`).
+    kc : KernelCurve
+        The curve's spans and bend bounds (:func:`.interpolate.kernel_curve`).
+    u0, u1, region_b, region_feed, vmax, period_s, tol
+        The piece and its schedule (see :func:`.taylor.taylor_kernel`).
     """
 
-    def __init__(self, breaks, coeffs, region_b, region_feed, vmax, period_s,
-                 on_chunk: Callable[[np.ndarray], None] | None = None):
-        self.breaks, self.coeffs = breaks, coeffs
-        self.rb = np.asarray(region_b, dtype=np.float64)
-        self.rfeed = np.asarray(region_feed, dtype=np.float64)
-        self.vmax, self.T = float(vmax), float(period_s)
-        self.on_chunk = on_chunk
-        self.n = 0
-        self.last: tuple[float, np.ndarray, float] | None = None
-        self.ce_max = 0.0
-        self.fl_max = 0.0
-        self.fl_sq = 0.0
-        self.fl_n = 0
-        self.pending: np.ndarray | None = None
-        self.limited = 0
-        self.v_min = np.inf
-        self.v_max = -np.inf
-        self.length = 0.0
-        self.tb = np.zeros(len(self.rb))
-        self.jb = 0
+    def __init__(self, kernel, kc, u0, u1, region_b, region_feed, vmax, period_s, tol,
+                 size: int | None = None, cap: int = 1024):
+        self.region_b = np.ascontiguousarray(region_b, dtype=np.float64)
+        self.args = (kc.breaks, kc.coeffs, kc.bends, kc.size, float(u0), float(u1), self.region_b,
+                     np.ascontiguousarray(region_feed, dtype=np.float64), float(vmax), float(period_s), float(tol))
+        self.kernel = kernel
+        self.size = size
+        self.cap = max(int(cap), 16)
+        self.T = float(period_s)
+        self.state = new_state()
+        self.times = np.zeros(len(self.region_b))
 
-    def add(self, pu: np.ndarray, pp: np.ndarray, pv: np.ndarray) -> None:
-        """Take the next chunk: params (m,), points (m, 3) mm, feeds (m,) mm/s."""
-        if len(pu) == 0:
+    def __iter__(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        state = self.state
+        if self.size is not None:
+            while state[ST_DONE] == 0.0:
+                before = state[ST_COUNT]
+                out = self.kernel(*self.args, state, int(self.size), self.times)
+                if len(out[0]):
+                    yield out
+                elif state[ST_COUNT] == before:  # cannot happen (a kernel emits or finishes); never loop on it
+                    break
             return
-        if self.last is None:
-            eu, ep, ev, base = pu, pp, pv, 0
-        else:
-            lu, lp, lv = self.last
-            eu = np.concatenate([[lu], pu])
-            ep = np.concatenate([lp[None, :], pp])
-            ev = np.concatenate([[lv], pv])
-            base = self.n - 1
-        m = len(eu)
-        if m >= 2:
-            steps = np.linalg.norm(np.diff(ep, axis=0), axis=1)
-            cmd = ev[1:] * self.T
-            fl = (steps - cmd) / cmd
-            # the piece's last step is excluded (it ends where the curve does): hold each chunk's last back
-            done = fl[:-1] if self.pending is None else np.concatenate([self.pending, fl[:-1]])
-            self.pending = fl[-1:]
-            if len(done):
-                self.fl_max = max(self.fl_max, float(np.abs(done).max()))
-                self.fl_sq += float(np.sum(done**2))
-                self.fl_n += len(done)
-            ce = chord_errors_kernel(self.breaks, self.coeffs, eu, np.ascontiguousarray(ep), 3)
-            self.ce_max = max(self.ce_max, float(ce.max()))
-            r = np.clip(np.searchsorted(self.rb, eu[:-1], side="right") - 1, 0, len(self.rfeed) - 1)
-            sched = np.minimum(self.rfeed[r], self.vmax)
-            self.limited += int(np.count_nonzero(ev[1:] < sched * (1 - 1e-9)))
-            self.length += float(steps.sum())
-        self.v_min = min(self.v_min, float(pv.min()))
-        self.v_max = max(self.v_max, float(pv.max()))
-        # time at each region boundary, the time a piecewise-linear function of the parameter
-        j1 = int(np.searchsorted(self.rb, eu[-1], side="right"))
-        if j1 > self.jb:
-            self.tb[self.jb:j1] = np.interp(self.rb[self.jb:j1], eu, (base + np.arange(m)) * self.T)
-            self.jb = j1
-        if self.on_chunk is not None:
-            self.on_chunk(pp)
-        self.n += len(pu)
-        self.last = (float(pu[-1]), np.array(pp[-1]), float(pv[-1]))
+        parts = []
+        room = self.cap
+        while state[ST_DONE] == 0.0:
+            before = state[ST_COUNT]
+            parts.append(self.kernel(*self.args, state, room, self.times))
+            if state[ST_COUNT] == before:
+                break
+            room = max(room // 4, 1024)  # the expected count was short: a little more at a time
+        if len(parts) == 1:
+            yield parts[0]
+        elif parts:
+            yield tuple(np.concatenate([p[j] for p in parts]) for j in range(3))
+
+    @property
+    def n(self) -> int:
+        return int(self.state[ST_COUNT])
 
     def boundary_times(self) -> np.ndarray:
         """(R + 1,) time at each dwell-region boundary, s (past the last sample: the last sample's)."""
-        out = self.tb.copy()
-        out[self.jb:] = max(self.n - 1, 0) * self.T
+        out = self.times.copy()
+        out[int(self.state[ST_JB]):] = max(self.n - 1, 0) * self.T
         return out
 
-    def stats(self) -> dict:
-        """The piece's figures (the keys of ``interpolate_constant_period``'s stats that depend on the samples)."""
-        n = self.n
+    def figures(self) -> dict:
+        """The run's figures (the keys of ``interpolate_constant_period``'s stats that depend on the samples)."""
+        st, n = self.state, self.n
         return {
-            "n_samples": int(n),
-            "chord_error_max": float(self.ce_max),
-            "feed_fluctuation_max": float(self.fl_max),
-            "feed_fluctuation_rms": float(np.sqrt(self.fl_sq / self.fl_n)) if self.fl_n else 0.0,
-            "feed_limited_share": float(self.limited / (n - 1)) if n > 1 else 0.0,
+            "n_samples": n,
+            "chord_error_max": float(st[ST_CE_MAX]),
+            "feed_fluctuation_max": float(st[ST_FL_MAX]),
+            "feed_fluctuation_rms": float(np.sqrt(st[ST_FL_SQ] / st[ST_FL_N])) if st[ST_FL_N] else 0.0,
+            "predictor_fluctuation_max": float(st[ST_PRED_MAX]),
+            "fallback_share": float(st[ST_FALLBACKS] / max(n - 1, 1)),
+            "feed_limited_share": float(st[ST_LIMITED] / (n - 1)) if n > 1 else 0.0,
             "duration_s": float((n - 1) * self.T),
-            "feed_min_mm_min": float(self.v_min * 60.0),
-            "feed_max_mm_min": float(self.v_max * 60.0),
+            "feed_min_mm_min": float(st[ST_V_MIN] * 60.0),
+            "feed_max_mm_min": float(st[ST_V_MAX] * 60.0),
+            "steps_length_mm": float(st[ST_LENGTH]),
         }
 
 
@@ -207,17 +150,17 @@ def iter_sample_chunks(tool_path: ToolPath, size: int = DEFAULT_STREAM_SAMPLES) 
         ``samples``, ``sample_params`` and ``feed_mm_min`` equal, bit for bit,
         the arrays ``smooth(..., keep_samples=True)`` holds.
     """
-    from .interpolate import _kernel_coeffs, integrator_kernel
+    from .interpolate import integrator_kernel, kernel_curve
 
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
         raise ParameterError(f"chunk size must be a whole number of samples >= 1, got {size!r}.",
                              "Give e.g. size=262144.")
     sch = _schedule_of(tool_path)
     kernel = integrator_kernel(sch.integrator)
-    breaks, cf, _ = _kernel_coeffs(tool_path.curve)
+    kc = kernel_curve(tool_path.curve)
     T = sch.period_ms / 1000.0
     for k in range(sch.n_pieces):
         u0, u1, rb, rf = sch.piece(k)
-        for pu, pp, pv in KernelRun(kernel, breaks, cf, u0, u1, rb, rf, sch.max_feed_mm_s, T, sch.chord_tol_mm,
+        for pu, pp, pv in KernelRun(kernel, kc, u0, u1, rb, rf, sch.max_feed_mm_s, T, sch.chord_tol_mm,
                                     size=int(size)):
             yield SampleChunk(pp, pu, pv * 60.0, k)

@@ -11,34 +11,43 @@ integrator is only its own rule for the next parameter:
 * :func:`span_of` — the span holding a parameter, walked from a nearby span;
 * :func:`step_feed` — the feed of one step: the schedule, cut by the chord-error
   limit of the local curvature, with a floor so the tool never stalls;
-* :func:`chord_step` — the parameter step whose chord is a given length
-  (bracketed secant / bisection), the exact corrector of the Taylor integrator
-  and the safeguard of the Adams integrator;
+* :func:`chord_newton` — the parameter step whose chord is a given length, by
+  Newton's method from the Taylor step (one or two iterates; its last iterate's
+  derivatives start the next step), the Taylor integrator's corrector;
+  :func:`chord_step` (bracketed secant / bisection) finishes where Newton does
+  not converge and is the Adams integrator's safeguard;
 * :func:`chord_deviation` — the measured chord error of a step, which every
   integrator holds under the tolerance by shortening the step;
-* :func:`span_bend_bounds` / :func:`chord_error_within` — a bound of a step's
-  chord error from the largest ``|C''|`` of its spans, which spares the three
-  curve evaluations of :func:`chord_deviation` where it already proves the step
-  under the tolerance (most steps: only the tight turns need the measurement);
-  the step taken, and so every sample, is the same as with the measurement;
+* :func:`span_bend_bounds` / :func:`chord_error_within` / :func:`step_error` — a
+  bound of a step's chord error from the largest ``|C''|`` of its spans, which
+  spares the three curve evaluations of :func:`chord_deviation` where it already
+  proves the step under the tolerance (most steps: only the tight turns need the
+  measurement); the step taken is the same as with the measurement;
 * :func:`nudge` — a tiny step over a point where the curve has no speed;
+* the kernels' ``state`` (:data:`STATE_SIZE` floats, ``ST_*`` indices): where
+  the piece stands (samples emitted, the last parameter, done), the Adams
+  integrator's history, and the figures of the samples so far
+  (:func:`record_step`: chord error, feed fluctuation, feed-limited steps,
+  feeds, the time at each dwell-region boundary; :func:`figure_error` measures
+  a step's chord error only where it can raise the largest so far, so the
+  figure is the measured one at no cost on most steps) — what makes a kernel
+  resumable: a call that starts where the previous one stopped and emits at
+  most ``limit`` samples gives, call after call, exactly the samples and the
+  figures of one call over the whole piece (a step depends only on the
+  parameter it starts from, and for the Adams integrator on the history the
+  state carries); :func:`span_at` / :func:`region_at` find where to resume;
 * :func:`chord_errors_kernel` — the chord error of every step of a finished run
-  (the independent check the stats report);
-* :func:`grow` — the output buffers, doubled when full;
-* :func:`span_at` / :func:`region_at` and the kernels' ``state`` (:data:`STATE_SIZE`
-  floats: samples emitted, the last one's parameter, whether the piece is done,
-  the integrator's history) — what makes a kernel resumable: a call that starts
-  where the previous one stopped and emits at most ``limit`` samples gives, call
-  after call, exactly the samples of one call over the whole piece (a step
-  depends only on the parameter it starts from, and for the Adams integrator on
-  the history the state carries).
+  (an independent check, used by the tests).
 
 No function here allocates: every point and derivative goes into a (d,) buffer
 the caller passes (``out``, ``pb``, ``scratch``) and the curves have
 :data:`DIM` = 3 coordinates, so the loops unroll, so a kernel step costs a few
 dozen multiply-adds per curve evaluation and no heap traffic (allocating three
-small arrays per evaluation made the kernels several times slower). The
-arithmetic, and so every sample, is the same as with allocated arrays.
+small arrays per evaluation made the kernels several times slower). The helpers
+are compiled without numba's reference counting (``_nrt=False``: they take
+arrays but never allocate), and the kernels never rebind an array in their
+loop: every array argument of a call otherwise costs an atomic increment and
+decrement, which took half of the kernel's time (measured with ``perf``).
 
 Hand-written: the hot loops of the project's own interpolator (no well-kept
 library offers constant-period NURBS interpolation with a dwell-time schedule).
@@ -53,8 +62,9 @@ import numba
 import numpy as np
 
 __all__ = ["DIM", "span_point", "span_derivs", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge",
-           "chord_errors_kernel", "grow", "span_bend_bounds", "chord_error_within", "checked_deviation",
-           "safe_tolerance", "span_at", "region_at", "STATE_SIZE", "new_state"]
+           "chord_errors_kernel", "span_bend_bounds", "chord_error_within",
+           "safe_tolerance", "span_at", "region_at", "STATE_SIZE", "new_state", "chord_newton", "record_step",
+           "start_piece", "step_error", "figure_error"]
 
 
 DIM = 3
@@ -63,19 +73,97 @@ coordinates unroll; :func:`~polishpath.smooth.interpolate.interpolate_constant_p
 pads a planar curve with a zero coordinate)."""
 
 
-STATE_SIZE = 11
-"""Floats of a kernel's resumable state: ``[0]`` samples emitted so far in the piece (0: the
-piece has not started), ``[1]`` the parameter of the last sample emitted, ``[2]`` 1 once the
-piece is done, ``[3:7]`` / ``[7:10]`` / ``[10]`` the Adams integrator's history of ``1/|C'|``,
-of step lengths and its length (unused by the Taylor integrator)."""
+# The kernels' resumable state, one float64 array (the indices are compile-time constants).
+ST_COUNT = 0       # samples emitted so far in the piece (0: the piece has not started)
+ST_U = 1           # parameter of the last sample emitted
+ST_DONE = 2        # 1 once the piece is done
+ST_G = 3           # [3:7] the Adams integrator's 1/|C'| at the last four samples, newest first
+ST_H = 7           # [7:10] its last three step lengths, mm
+ST_NH = 10         # how much of that history is valid
+ST_CE_MAX = 11     # largest chord error of a step, measured at 1/4, 1/2, 3/4 of it, mm
+ST_FL_MAX = 12     # largest |chord / (V T) - 1| of a step (the piece's last step excluded)
+ST_FL_SQ = 13      # sum of its squares
+ST_FL_N = 14       # steps counted in it
+ST_LIMITED = 15    # steps whose feed is under the region's schedule (curvature or chord limit)
+ST_V_MIN = 16      # least and largest feed of a sample, mm/s
+ST_V_MAX = 17
+ST_FL_LAST = 18    # the last step's fluctuation, counted once a further step follows
+ST_HAS_LAST = 19
+ST_LENGTH = 20     # sum of the chords, mm
+ST_PRED_MAX = 21   # largest |chord / (V T) - 1| of the integrator's own step before any correction
+ST_FALLBACKS = 22  # steps left to the safeguard (Adams) / to the bracketing corrector (Taylor)
+ST_JB = 23         # dwell-region boundaries already timed
+STATE_SIZE = 24
+"""Floats of a kernel's resumable state (``ST_*`` indices): where the piece stands (samples
+emitted, the last parameter, done), the Adams integrator's history, and the figures of the
+samples so far, so that chunked calls and one call report the same figures."""
 
 
 def new_state() -> np.ndarray:
     """A kernel state at the start of a piece, (:data:`STATE_SIZE`,) float64."""
-    return np.zeros(STATE_SIZE)
+    st = np.zeros(STATE_SIZE)
+    st[ST_V_MIN] = np.inf
+    st[ST_V_MAX] = -np.inf
+    return st
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
+def start_piece(state, region_b, region_times, v0):  # pragma: no cover - numba
+    """The figures of a piece's first sample (feed ``v0``): boundaries at or before it at time 0."""
+    state[ST_V_MIN] = min(state[ST_V_MIN], v0)
+    state[ST_V_MAX] = max(state[ST_V_MAX], v0)
+    u = state[ST_U]
+    j = int(state[ST_JB])
+    while j < region_b.shape[0] and region_b[j] <= u:
+        region_times[j] = 0.0
+        j += 1
+    state[ST_JB] = j
+
+
+@numba.njit(cache=True, _nrt=False)
+def record_step(state, region_b, region_times, k, u, un, pa, pb, v, sched, period_s, ce):  # pragma: no cover
+    """Add the step from sample ``k - 1`` (``u``, ``pa``) to sample ``k`` (``un``, ``pb``) at feed ``v``
+    (scheduled ``sched``, chord error ``ce``) to the piece's figures in ``state``; time the
+    dwell-region boundaries it passes (``region_times``, s; the time is linear in the parameter
+    over a step, as ``numpy.interp`` over the samples would give it, to the bit)."""
+    act = 0.0
+    for j in range(DIM):
+        act += (pb[j] - pa[j]) * (pb[j] - pa[j])
+    act = math.sqrt(act)
+    cmd = v * period_s
+    fl = (act - cmd) / cmd
+    if state[ST_HAS_LAST] != 0.0:
+        last = state[ST_FL_LAST]
+        state[ST_FL_MAX] = max(state[ST_FL_MAX], abs(last))
+        state[ST_FL_SQ] += last * last
+        state[ST_FL_N] += 1.0
+    state[ST_FL_LAST] = fl
+    state[ST_HAS_LAST] = 1.0
+    if v < sched * (1 - 1e-9):
+        state[ST_LIMITED] += 1.0
+    state[ST_V_MIN] = min(state[ST_V_MIN], v)
+    state[ST_V_MAX] = max(state[ST_V_MAX], v)
+    state[ST_LENGTH] += act
+    state[ST_CE_MAX] = max(state[ST_CE_MAX], ce)
+    j = int(state[ST_JB])
+    nb = region_b.shape[0]
+    if j < nb and region_b[j] <= un:
+        t0 = (k - 1) * period_s
+        t1 = k * period_s
+        slope = (t1 - t0) / (un - u)
+        while j < nb and region_b[j] <= un:
+            x = region_b[j]
+            if x == un:
+                region_times[j] = t1
+            elif x <= u:
+                region_times[j] = t0
+            else:
+                region_times[j] = slope * (x - u) + t0
+            j += 1
+        state[ST_JB] = j
+
+
+@numba.njit(cache=True, _nrt=False)
 def span_at(breaks, u):  # pragma: no cover - numba
     """Index of the span holding ``u`` by bisection (the same span :func:`span_of` walks to: the breaks are distinct)."""
     ns = breaks.shape[0] - 1
@@ -83,14 +171,14 @@ def span_at(breaks, u):  # pragma: no cover - numba
     return min(max(s, 0), ns - 1)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def region_at(region_b, nreg, u):  # pragma: no cover - numba
     """Index of the dwell region holding ``u``: the region the kernels' forward walk from region 0 reaches."""
     r = np.searchsorted(region_b, u, side="right") - 1
     return min(max(r, 0), nreg - 1)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def span_point(breaks, coeffs, s, u, out):  # pragma: no cover - numba
     """C(u) on span ``s`` into ``out`` (3,), mm (the same Horner sums as :func:`span_derivs`)."""
     h = breaks[s + 1] - breaks[s]
@@ -108,7 +196,7 @@ def span_point(breaks, coeffs, s, u, out):  # pragma: no cover - numba
     out[2] = z
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def span_derivs(breaks, coeffs, s, u, val, d1, d2):  # pragma: no cover - numba
     """C(u), C'(u), C''(u) on span ``s`` into the (3,) buffers ``val``, ``d1``, ``d2`` (mm, mm per unit u, ...)."""
     h = breaks[s + 1] - breaks[s]
@@ -145,7 +233,7 @@ def span_derivs(breaks, coeffs, s, u, val, d1, d2):  # pragma: no cover - numba
     d2[2] = z2 / hh
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def span_of(breaks, s, u):  # pragma: no cover - numba
     """Index of the span holding ``u``, walking from span ``s`` (steps move a span at a time)."""
     ns = breaks.shape[0] - 1
@@ -156,7 +244,7 @@ def span_of(breaks, s, u):  # pragma: no cover - numba
     return s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def step_feed(sched, sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
     """Feed of one step, mm/s.
 
@@ -184,7 +272,7 @@ def step_feed(sched, sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
     return max(v, 1e-3 * sched)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def chord_step(breaks, coeffs, s, u, u1, pa, ln, du, pb):  # pragma: no cover - numba
     """Parameter after ``u`` whose chord from ``pa = C(u)`` is ``ln`` (to 1e-6 relative).
 
@@ -247,7 +335,60 @@ def chord_step(breaks, coeffs, s, u, u1, pa, ln, du, pb):  # pragma: no cover - 
     return un, guess_error
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
+def chord_newton(breaks, coeffs, s, u, u1, pa, ln, du, pb, d1, d2):  # pragma: no cover - numba
+    """Parameter after ``u`` whose chord from ``pa = C(u)`` is ``ln`` (to 1e-6 relative), by Newton's method.
+
+    From the guess ``u + du``: each iterate's point and derivatives
+    (:func:`span_derivs`, into ``pb``, ``d1``, ``d2``) give the next,
+    ``du <- du - (|chord| - ln) |chord| / (chord . C')``; a good guess (the
+    Taylor step) converges in one or two iterates. Where it does not (a
+    near-cusp, a chord that is not monotonic in the step), the bracketed
+    :func:`chord_step` finishes from the guess.
+
+    Returns
+    -------
+    un : float
+        The parameter reached (``<= u1``).
+    guess_error : float
+        ``|chord(u + du) / ln - 1|`` of the guess, or -1 when not measured.
+    derivs : bool
+        True when ``d1``, ``d2`` hold ``C'``, ``C''`` at ``un`` (Newton converged; the
+        next step starts from them).
+    """
+    d = DIM
+    guess_error = -1.0
+    du0 = du
+    for it in range(4):
+        un = u + du
+        if un >= u1:
+            un = u1
+        sn = span_of(breaks, s, un)
+        span_derivs(breaks, coeffs, sn, un, pb, d1, d2)
+        act2 = 0.0
+        slope = 0.0
+        for j in range(d):
+            e = pb[j] - pa[j]
+            act2 += e * e
+            slope += e * d1[j]
+        act = math.sqrt(act2)
+        if it == 0 and un < u1 and act > 0.0:
+            guess_error = abs(act / ln - 1.0)
+        if abs(act / ln - 1.0) < 1e-6:
+            return un, guess_error, True
+        if un >= u1 and act < ln:
+            return un, guess_error, True  # the curve ends within this step
+        if act <= 0.0 or slope <= 0.0:
+            break
+        nxt = (un - u) - (act - ln) * act / slope
+        if not (nxt > 0.0) or not math.isfinite(nxt):
+            break
+        du = nxt
+    un, g = chord_step(breaks, coeffs, s, u, u1, pa, ln, du0, pb)
+    return un, (guess_error if guess_error >= 0.0 else g), False
+
+
+@numba.njit(cache=True, _nrt=False)
 def chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch):  # pragma: no cover - numba
     """Largest distance of the curve at 1/4, 1/2, 3/4 of ``[ua, ub]`` from the chord ``[pa, pb]``, mm.
 
@@ -315,7 +456,7 @@ def span_bend_bounds(breaks, coeffs):  # pragma: no cover - numba
     return out, size
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _bend_at(breaks, coeffs, s, u):  # pragma: no cover - numba
     """``|C''(u)|`` on span ``s`` of a curve of degree <= 3 (linear in t there), mm per unit parameter squared."""
     h = breaks[s + 1] - breaks[s]
@@ -328,7 +469,7 @@ def _bend_at(breaks, coeffs, s, u):  # pragma: no cover - numba
     return math.sqrt(a) / (h * h)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def chord_error_within(breaks, coeffs, bends, s0, ua, ub):  # pragma: no cover - numba
     """Upper bound of the distance between the curve on ``[ua, ub]`` and its chord, mm.
 
@@ -362,28 +503,39 @@ def chord_error_within(breaks, coeffs, bends, s0, ua, ub):  # pragma: no cover -
     return 0.125 * du * du * m
 
 
-@numba.njit(cache=True)
-def checked_deviation(breaks, coeffs, bends, safe, s0, ua, ub, pa, pb, scratch):  # pragma: no cover - numba
-    """The step's chord error as the kernels compare it with the tolerance, mm.
-
-    The bound of :func:`chord_error_within` when it is at most ``safe`` (the
-    tolerance less a rounding margin, so the measured error would be under the
-    tolerance too and the kernel accepts the step either way), else the
-    measured :func:`chord_deviation`.
-    """
+@numba.njit(cache=True, _nrt=False)
+def step_error(breaks, coeffs, bends, safe, s0, ua, ub, pa, pb, scratch):  # pragma: no cover - numba
+    """``(error, measured)``: :func:`checked_deviation` and whether it measured (else it is the bound)."""
     b = chord_error_within(breaks, coeffs, bends, s0, ua, ub)
     if b <= safe:
-        return b
-    return chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch)
+        return b, False
+    return chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch), True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
+def figure_error(breaks, coeffs, s0, ua, ub, pa, pb, scratch, err, measured, ce_max, margin):  # pragma: no cover
+    """The accepted step's chord error for the figures: measured at 1/4, 1/2, 3/4 (as
+    :func:`chord_errors_kernel` measures it) when that can raise the largest so far, else 0.
+
+    ``err`` is the kernel's check (``measured``: the measurement itself, else the bound,
+    which no measurement exceeds by more than the rounding ``margin``): a step whose
+    bound is under the largest measured so far cannot change the largest, so most
+    steps cost nothing here and the figure is exact.
+    """
+    if measured:
+        return err
+    if err + margin > ce_max:
+        return chord_deviation(breaks, coeffs, s0, ua, ub, pa, pb, scratch)
+    return 0.0
+
+
+@numba.njit(cache=True, _nrt=False)
 def safe_tolerance(tol, size):  # pragma: no cover - numba
     """The tolerance less a margin for the rounding of the measured chord error (1e-9 of the curve's size, far above the 1e-15 rounding)."""
     return 0.99 * tol - 1e-9 * max(size, 1.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def nudge(breaks, coeffs, s, u, u0, u1, pb):  # pragma: no cover - numba
     """A step that made no progress in floating point (|C'| ~ 0 at a cusp): step over the
     point by a parameter increment tiny on the curve's scale. Returns ``un``; ``C(un)`` goes into ``pb``."""
@@ -428,15 +580,3 @@ def chord_errors_kernel(breaks, coeffs, params, samples, n_check):  # pragma: no
     return out
 
 
-@numba.njit(cache=True)
-def grow(out_u, out_p, out_v, n):  # pragma: no cover - numba
-    """The three output buffers with twice the room, first ``n`` rows kept."""
-    cap = 2 * out_u.shape[0]
-    d = out_p.shape[1]
-    nu = np.empty(cap)
-    nu[:n] = out_u[:n]
-    np_ = np.empty((cap, d))
-    np_[:n] = out_p[:n]
-    nv = np.empty(cap)
-    nv[:n] = out_v[:n]
-    return nu, np_, nv

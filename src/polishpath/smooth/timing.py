@@ -1,0 +1,196 @@
+"""The dwell-time feed schedule solved before interpolating (numba).
+
+Each dwell region must take its wanted time ``t_j``. Where the curvature is
+high, the interpolator cuts the feed to the chord-error limit
+``v_c(u) = 2 sqrt(2 rho delta - delta^2) / T`` (``rho = 1 / kappa``,
+:func:`.spans.step_feed`), so a region run at the feed ``f`` takes
+
+    t_j(f) = integral over the region of ds / min(f, v_c(s))
+
+which is known before any sample is made: this module computes it by
+Gauss-Legendre quadrature (``ds = |C'(u)| du``, ``order`` nodes on each side
+of the dwell point) and solves ``t_j(f) = t_j`` for every region at once
+(:func:`solve_region_feeds`): ``t_j(f)`` is piecewise ``A + B / f`` between
+the sorted node limits, so the root is exact on the quadrature. One
+interpolation run then meets the times to the discretisation (a step keeps
+the feed of its start over the period; where the chord-error check shortens a
+step beyond the circle's estimate); :func:`corrected_targets` folds a run's
+measured region times back into the targets for a corrective run.
+
+Hand-written: the project's own schedule (no library solves a dwell-time
+schedule under a chord-error feed limit). Units: mm, mm/s, s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .spans import DIM, span_at, span_derivs, span_of
+
+__all__ = ["solve_region_feeds", "region_model_times", "corrected_targets", "DEFAULT_ORDER"]
+
+DEFAULT_ORDER = 4
+"""Gauss-Legendre nodes on each side of a dwell point."""
+
+
+@numba.njit(cache=True, _nrt=False)
+def _node_limit(sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
+    """The chord-error feed limit at a point (:func:`.spans.step_feed` without the schedule), mm/s; inf on a line."""
+    sp = math.sqrt(sp2)
+    kap = math.sqrt(max(sp2 * acc2 - dot * dot, 0.0)) / (sp2 * sp)
+    if kap > 0.0:
+        rho = 1.0 / kap
+        if tol < rho:
+            return 2.0 * math.sqrt(2.0 * rho * tol - tol * tol) / period_s
+        return tol / period_s
+    return math.inf
+
+
+@numba.njit(cache=True, _nrt=False)
+def _region_nodes(breaks, coeffs, a, m, b, gx, gw, period_s, tol, lim, wt, c0, c1, c2):  # pragma: no cover - numba
+    """Arc-length weights ``wt`` (2Q,) mm and feed limits ``lim`` (2Q,) mm/s at the nodes of ``[a, m]``, ``[m, b]``
+    (``c0``, ``c1``, ``c2``: (3,) scratch)."""
+    q = gx.shape[0]
+    s = span_at(breaks, a)
+    k = 0
+    for half in range(2):
+        lo = a if half == 0 else m
+        hi = m if half == 0 else b
+        mid = 0.5 * (lo + hi)
+        h = 0.5 * (hi - lo)
+        for i in range(q):
+            u = mid + h * gx[i]
+            s = span_of(breaks, s, u)
+            span_derivs(breaks, coeffs, s, u, c0, c1, c2)
+            sp2 = 0.0
+            acc2 = 0.0
+            dot = 0.0
+            for j in range(DIM):
+                sp2 += c1[j] * c1[j]
+                acc2 += c2[j] * c2[j]
+                dot += c1[j] * c2[j]
+            wt[k] = h * gw[i] * math.sqrt(sp2)
+            lim[k] = _node_limit(sp2, acc2, dot, period_s, tol) if sp2 > 0.0 else math.inf
+            k += 1
+
+
+@numba.njit(cache=True, _nrt=False)
+def _time_at(lim, wt, f):  # pragma: no cover - numba
+    t = 0.0
+    for i in range(lim.shape[0]):
+        if wt[i] > 0.0:
+            t += wt[i] / min(f, lim[i])
+    return t
+
+
+@numba.njit(cache=True)
+def solve_region_feeds(breaks, coeffs, region_b, dwell_params, times, vmax, period_s, tol, gx, gw):  # pragma: no cover
+    """The feed of every dwell region that makes its modelled time its wanted time.
+
+    Parameters
+    ----------
+    breaks, coeffs
+        The curve's spans (3 coordinates).
+    region_b : (R + 1,) float
+        Region boundaries; region j holds ``dwell_params[j]``.
+    dwell_params : (R,) float
+    times : (R,) float
+        Wanted time of each region, s (> 0).
+    vmax : float
+        Machine feed limit, mm/s.
+    period_s, tol : float
+        Interpolation period (s) and chord tolerance (mm).
+    gx, gw : (Q,) float
+        Gauss-Legendre nodes and weights on [-1, 1].
+
+    Returns
+    -------
+    feeds : (R,) float
+        mm/s, at most ``vmax`` (where even ``vmax`` cannot make the time, ``vmax``).
+    model : (R,) float
+        The modelled time of each region at that feed, s.
+    lengths : (R,) float
+        Arc length of each region (the same quadrature), mm.
+    """
+    nr = times.shape[0]
+    q2 = 2 * gx.shape[0]
+    feeds = np.empty(nr)
+    model = np.empty(nr)
+    lengths = np.empty(nr)
+    lim = np.empty(q2)
+    wt = np.empty(q2)
+    c0 = np.empty(DIM)
+    c1 = np.empty(DIM)
+    c2 = np.empty(DIM)
+    for j in range(nr):
+        _region_nodes(breaks, coeffs, region_b[j], dwell_params[j], region_b[j + 1], gx, gw, period_s, tol, lim, wt,
+                      c0, c1, c2)
+        # sort the nodes by their limit (insertion sort of a few values)
+        for i in range(1, q2):
+            x = lim[i]
+            y = wt[i]
+            k = i - 1
+            while k >= 0 and lim[k] > x:
+                lim[k + 1] = lim[k]
+                wt[k + 1] = wt[k]
+                k -= 1
+            lim[k + 1] = x
+            wt[k + 1] = y
+        total = 0.0
+        for i in range(q2):
+            total += wt[i]
+        lengths[j] = total
+        want = times[j]
+        # t(f) = A_k + B_k / f for f between the k-th and (k+1)-th smallest limit:
+        # A_k the time of the nodes already limited, B_k the length of the others
+        f = math.inf
+        a_k = 0.0
+        b_k = total
+        for k in range(q2 + 1):
+            if want <= a_k:
+                break  # the limited nodes alone take longer than wanted: no feed makes it
+            cand = b_k / (want - a_k) if b_k > 0.0 else 0.0
+            if k == q2 or cand <= lim[k]:
+                f = cand if b_k > 0.0 else math.inf
+                break
+            if wt[k] > 0.0:
+                a_k += wt[k] / lim[k]
+                b_k -= wt[k]
+        f = min(f, vmax)
+        if not (f > 0.0):
+            f = min(total / want, vmax) if total > 0.0 else vmax
+        feeds[j] = f
+        model[j] = _time_at(lim, wt, f)
+    return feeds, model, lengths
+
+
+@numba.njit(cache=True)
+def region_model_times(breaks, coeffs, region_b, dwell_params, feeds, vmax, period_s, tol, gx, gw):  # pragma: no cover
+    """The modelled time of every region at the given feeds (capped by ``vmax``), (R,) s."""
+    nr = feeds.shape[0]
+    q2 = 2 * gx.shape[0]
+    out = np.empty(nr)
+    lim = np.empty(q2)
+    wt = np.empty(q2)
+    c0 = np.empty(DIM)
+    c1 = np.empty(DIM)
+    c2 = np.empty(DIM)
+    for j in range(nr):
+        _region_nodes(breaks, coeffs, region_b[j], dwell_params[j], region_b[j + 1], gx, gw, period_s, tol, lim, wt,
+                      c0, c1, c2)
+        out[j] = _time_at(lim, wt, min(feeds[j], vmax))
+    return out
+
+
+def corrected_targets(times: np.ndarray, spent: np.ndarray, model: np.ndarray) -> np.ndarray:
+    """Targets for the model that make the next run's regions take ``times``, (R,) s.
+
+    A run spends ``spent`` where the model said ``model``; the difference (the
+    discretisation, the chord-error check's extra shortening) is taken to stay
+    the same at a nearby feed, so the model is asked for ``times - (spent - model)``
+    (kept above a tenth of the wanted time).
+    """
+    return np.maximum(times - (spent - model), 0.1 * times)
