@@ -1,22 +1,82 @@
-"""Benchmark of the smoothing stage (issue 5): NURBS interpolation, evaluation, constant-period samples.
+"""Benchmark of the smoothing stage (issues 5, 15): NURBS interpolation, the dwell-time schedule, constant-period samples.
 
-Run: ``PYTHONPATH=src python benchmarks/bench_smooth.py [--max-n 1000000]``
+Run: ``PYTHONPATH=src python benchmarks/bench_smooth.py [--sizes 1e5,1e6] [--e2e-triangles 0]``
 
-Prints seconds for 10^5 and 10^6 dwell points (a boustrophedon on a 0.5 mm grid
-lifted onto a dome; its U-turns are where the feed is cut), the sample count and chord
-error reached, and the ratio against geomdl's dense O(N^3) interpolation
-(``geomdl.fitting.interpolate_curve``) measured in the same run on small N.
+For each size, the benchmark's flat disk (``bench_job.disk_obj``: the mesh the
+whole-job benchmark uses, 0.5 mm spacing, seed 7) is flattened and planned once,
+then ``smooth()`` runs as the job runs it (area-weighted dwell times, 600 mm/min,
+4 ms, 1 um, the mesh for the boundary check). Printed: the stage's wall and CPU
+seconds and machine samples per CPU second, the kernels' own seconds (every
+schedule pass) and samples per second per pass, the schedule passes run, the
+dwell-time errors (max / p99 / RMS), the chord error and feed fluctuation, and
+the same stage with ``keep_samples=False`` (the figures must be equal). The
+machine is shared: CPU seconds are the steadier figure; the load average is
+printed. Then the interpolation of a dome serpentine (U-turns) against geomdl's
+dense interpolation on small N, and an end-to-end hemisphere run.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
 from polishpath.smooth import evaluate, interpolate_constant_period, interpolate_nurbs, smooth
-from polishpath.types import PlanarPath, Provenance, SurfacePath
+
+TARGET_SAMPLES_PER_S = 2e6  # issue 15: the smoothing stage
+
+
+def disk_job(n: float, work: Path):
+    """(surface, surface path) of the benchmark disk with about ``n`` dwell points."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_job import SEED, SPACING_MM, disk_obj
+
+    from polishpath.flatten import boundary_region, flatten
+    from polishpath.pipeline import plan_on_surface
+    from polishpath.surfaces import load_surface
+
+    mesh = work / f"disk-{n:.0e}.obj"
+    disk_obj(mesh, math.sqrt(n * SPACING_MM**2 / math.pi))
+    surf = load_surface(str(mesh))
+    flat = flatten(surf, "mabf")
+    plan = plan_on_surface(flat, boundary_region(flat), SPACING_MM, seed=SEED, margin=None,
+                           max_points=int(4 * n) + 1000)
+    return surf, plan.surface_path
+
+
+def stage(n: float, work: Path) -> None:
+    t = time.perf_counter()
+    surf, sp = disk_job(n, work)
+    print(f"\n== disk, {len(sp.xyz):,} dwell points (planned in {time.perf_counter() - t:.1f} s; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores) ==")
+    runs = {}
+    for keep in (True, False):
+        w, c = time.perf_counter(), time.process_time()
+        tp = smooth(sp, surface=surf, keep_samples=keep)
+        w, c = time.perf_counter() - w, time.process_time() - c
+        runs[keep] = tp.stats
+        st = tp.stats
+        m = st["n_samples"]
+        ip = st["interpolation_s"]
+        passes = st["schedule_passes"]
+        print(f"  keep_samples={keep!s:<5}: smooth() {w:.2f} s wall, {c:.2f} s CPU -> {m:,} samples, "
+              f"{m / c / 1e6:.2f} M samples per CPU second over the stage ({m / w / 1e6:.2f} M/s wall; target "
+              f"{TARGET_SAMPLES_PER_S / 1e6:.0f} M/s: {'met' if m / c >= TARGET_SAMPLES_PER_S else 'missed'})")
+        print(f"    kernels {ip:.2f} s wall for {passes} schedule pass(es) "
+              f"({st['schedule_corrected_regions']:,} regions corrected): {m * passes / ip / 1e6:.2f} M samples/s "
+              f"per pass; dwell-time error max {st['dwell_time_error_max']:.4f} p99 {st['dwell_time_error_p99']:.4f} "
+              f"RMS {st['dwell_time_error_rms']:.4f}; chord error max {st['chord_error_max'] * 1e3:.4f} um; "
+              f"feed fluctuation max {st['feed_fluctuation_max']:.1e}; feed-limited share "
+              f"{st['feed_limited_share']:.3f}; boundary excursion {st['boundary_excursion_max_mm']:.4f} mm")
+        del tp
+    same = all(runs[True][k] == runs[False][k] for k in runs[True] if k not in ("seconds", "interpolation_s"))
+    print(f"  figures with and without the samples held: {'equal' if same else 'DIFFERENT'}")
 
 
 def dome_path(n: int, seed: int = 0, spacing: float = 0.5) -> np.ndarray:
@@ -32,20 +92,12 @@ def dome_path(n: int, seed: int = 0, spacing: float = 0.5) -> np.ndarray:
     return np.column_stack([xy, np.sqrt(big**2 - r2)])
 
 
-def surface_path_of(pts: np.ndarray) -> SurfacePath:
-    n = len(pts)
-    nrm = pts - np.array([0, 0, 0.0])
-    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
-    planar = PlanarPath(pts[:, :2], np.zeros((n, 2), np.int64), 0.5, provenance=Provenance("plan", "bench", seed=0))
-    return SurfacePath(pts, nrm, np.zeros(n, np.int64), np.tile([1.0, 0, 0], (n, 1)), np.ones(n), planar)
-
-
-def main(max_n: int) -> None:
-    # warm-up: numba compile / cache load
+def dome(max_n: int) -> None:
+    """The interpolation alone on a dome serpentine (its U-turns are where the feed is cut)."""
     t = time.perf_counter()
     c, _ = interpolate_nurbs(dome_path(50))
     interpolate_constant_period(c, 600.0, 4.0, 1e-3)
-    print(f"warm-up (numba compile or cache load): {time.perf_counter() - t:.2f} s")
+    print(f"\nwarm-up (numba compile or cache load): {time.perf_counter() - t:.2f} s")
     for n in (10**5, 10**6):
         if n > max_n:
             continue
@@ -60,17 +112,11 @@ def main(max_n: int) -> None:
         res = interpolate_constant_period(curve, 3000.0, 4.0, 1e-3)
         t_ip = time.perf_counter() - t
         st = res["stats"]
-        print(f"{n:>8d} points: interpolate_nurbs {t_fit:.2f} s, evaluate at the N dwell params {t_eval:.2f} s"
+        print(f"dome {n:>8d} points: interpolate_nurbs {t_fit:.2f} s, evaluate at the N dwell params {t_eval:.2f} s"
               f" (through-point error {err:.1e} mm), constant-period 3000 mm/min x 4 ms {t_ip:.2f} s ->"
               f" {st['n_samples']} samples, chord error max {st['chord_error_max'] * 1e3:.3f} um,"
               f" feed fluctuation max {st['feed_fluctuation_max']:.1e} (Taylor predictor alone"
               f" {st['predictor_fluctuation_max']:.1e})")
-        t = time.perf_counter()
-        tp = smooth(surface_path_of(pts), feed_mm_min=3000.0, period_ms=4.0)
-        print(f"{'':>8s}         smooth() stage (fit + area-weighted dwell schedule + samples + overshoot):"
-              f" {time.perf_counter() - t:.2f} s, {len(tp.samples)} samples,"
-              f" lateral overshoot max {tp.stats['lateral_overshoot_max']:.4f} mm,"
-              f" dwell-time error max {tp.stats['dwell_time_error_max']:.3f}")
     try:
         from geomdl import fitting
     except ImportError:
@@ -133,9 +179,15 @@ def hemisphere_end_to_end(triangles: int, spacing: float = 0.5, seed: int = 1) -
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
-    ap.add_argument("--max-n", type=int, default=10**6)
+    ap.add_argument("--sizes", default="1e5,1e6", help="dwell points of the disks, comma-separated")
+    ap.add_argument("--max-n", type=int, default=10**6, help="largest dome serpentine (0 skips it)")
     ap.add_argument("--e2e-triangles", type=int, default=100220, help="0 skips the end-to-end run")
     args = ap.parse_args()
-    main(args.max_n)
+    with tempfile.TemporaryDirectory() as tmp:
+        for size in args.sizes.split(","):
+            if size.strip():
+                stage(float(size), Path(tmp))
+    if args.max_n:
+        dome(args.max_n)
     if args.e2e_triangles:
         hemisphere_end_to_end(args.e2e_triangles)

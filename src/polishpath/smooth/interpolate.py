@@ -133,7 +133,8 @@ def kernel_curve(curve: NurbsCurve) -> KernelCurve:
     bends, size = span_bend_bounds(breaks, coeffs)
     kc = KernelCurve(breaks, coeffs, bends, float(size), d)
     _KC_CACHE[id(curve)] = (weakref.ref(curve), kc)
-    weakref.finalize(curve, _KC_CACHE.pop, id(curve), None)
+    # dropped with the curve; not at exit (a signal then would print a traceback from the finalizer)
+    weakref.finalize(curve, _KC_CACHE.pop, id(curve), None).atexit = False
     return kc
 
 

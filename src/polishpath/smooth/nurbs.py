@@ -377,7 +377,8 @@ def span_polynomials(curve: NurbsCurve) -> tuple[np.ndarray, np.ndarray, np.ndar
     # breaks must be contiguous: with joined pieces every span start equals the previous end
     out = (breaks, coeffs, idx.astype(np.int64))
     _POLY_CACHE[key] = (weakref.ref(curve), out)
-    weakref.finalize(curve, _POLY_CACHE.pop, key, None)
+    # dropped with the curve; not at exit (a signal then would print a traceback from the finalizer)
+    weakref.finalize(curve, _POLY_CACHE.pop, key, None).atexit = False
     return out
 
 
