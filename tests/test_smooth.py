@@ -421,3 +421,18 @@ def test_dwell_times_are_met_better_than_the_fixed_point_schedule_did():
         assert np.array_equal(res["params"], tp.sample_params[st["sample_pieces"][k]:st["sample_pieces"][k + 1]])
         worst = max(worst, float(np.abs(res["dwell_time_error"]).max()))
     assert 0 < worst < 0.05
+
+
+def test_compiled_edge_distance_matches_the_vectorised_one():
+    """boundary._edge_distance (a compiled loop over each point's candidate edges) = _segment_distance's minimum."""
+    from polishpath.smooth.boundary import _edge_distance, _segment_distance
+
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(300, 3))
+    b = a + rng.normal(scale=0.1, size=(300, 3))
+    b[7] = a[7]  # a zero-length edge
+    p = rng.normal(size=(1000, 3))
+    near = rng.integers(0, 300, size=(1000, 16))
+    near[:, 0] = 7
+    want = _segment_distance(p[:, None, :], a[near], b[near]).min(axis=1)
+    assert np.allclose(_edge_distance(p, a, b, near), want, rtol=1e-14, atol=1e-15)

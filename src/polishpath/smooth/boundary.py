@@ -15,6 +15,9 @@ reported separately).
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -44,6 +47,49 @@ def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
     return np.linalg.norm(p - (a + t[..., None] * e), axis=-1)
 
 
+@numba.njit(cache=True)
+def _maybe_near(pts, d_anchor, stride, limit):  # pragma: no cover - numba
+    """Indices of the points the triangle inequality does not rule out (a compiled loop: no (M, 3) temporaries)."""
+    m = pts.shape[0]
+    out = np.empty(m, np.int64)
+    k = 0
+    lim = limit * (1 + 1e-9) + 1e-9
+    for i in range(m):
+        a = (i // stride) * stride
+        g = 0.0
+        for j in range(3):
+            g += (pts[i, j] - pts[a, j]) * (pts[i, j] - pts[a, j])
+        if d_anchor[i // stride] - math.sqrt(g) <= lim:
+            out[k] = i
+            k += 1
+    return out[:k]
+
+
+@numba.njit(cache=True)
+def _edge_distance(p, a, b, near):  # pragma: no cover - numba
+    """Distance from each point ``p`` (M, 3) to the nearest of its edges ``near`` (M, k) (ends ``a``, ``b``), (M,)."""
+    m, kk = near.shape
+    out = np.empty(m)
+    for i in range(m):
+        best = np.inf
+        for q in range(kk):
+            e = near[i, q]
+            ll = 0.0
+            tt = 0.0
+            for j in range(3):
+                d = b[e, j] - a[e, j]
+                ll += d * d
+                tt += (p[i, j] - a[e, j]) * d
+            t = min(max(tt / ll, 0.0), 1.0) if ll > 0 else 0.0
+            r = 0.0
+            for j in range(3):
+                x = p[i, j] - (a[e, j] + t * (b[e, j] - a[e, j]))
+                r += x * x
+            best = min(best, math.sqrt(r))
+        out[i] = best
+    return out
+
+
 def _near_boundary(pts: np.ndarray, tree: cKDTree, limit: float, stride: int = 64) -> np.ndarray:
     """Indices of the points within ``limit`` of a point of ``tree``, ascending.
 
@@ -53,11 +99,11 @@ def _near_boundary(pts: np.ndarray, tree: cKDTree, limit: float, stride: int = 6
     already rule out: machine samples are consecutive along the path, so most
     of them lie far from the boundary with their anchor.
     """
-    m = len(pts)
-    anchor = (np.arange(m) // stride) * stride
+    pts = np.ascontiguousarray(pts, dtype=np.float64)
+    if len(pts) == 0:
+        return np.zeros(0, np.int64)
     d_anchor, _ = tree.query(pts[::stride])
-    gap = np.linalg.norm(pts - pts[anchor], axis=1)
-    maybe = np.flatnonzero(d_anchor[anchor // stride] - gap <= limit * (1 + 1e-9) + 1e-9)
+    maybe = _maybe_near(pts, np.ascontiguousarray(d_anchor, dtype=np.float64), int(stride), float(limit))
     if len(maybe) == 0:
         return maybe
     d, _ = tree.query(pts[maybe])
@@ -79,7 +125,8 @@ class BoundaryCheck:
         self.be = boundary_edges(self.f)
         self.reach = float(reach)
         if len(self.be):
-            self.a, self.b = self.v[self.be[:, 0]], self.v[self.be[:, 1]]
+            self.a = np.ascontiguousarray(self.v[self.be[:, 0]])
+            self.b = np.ascontiguousarray(self.v[self.be[:, 1]])
             self.half = 0.5 * float(np.linalg.norm(self.b - self.a, axis=1).max())
             self.tree = cKDTree(0.5 * (self.a + self.b))
         self.scale = float(np.linalg.norm(self.v.max(axis=0) - self.v.min(axis=0)))
@@ -98,7 +145,8 @@ class BoundaryCheck:
         k = min(16, len(self.be))
         _, near = self.tree.query(closest, k=k)
         near = np.asarray(near).reshape(len(cand), k)
-        d_edge = _segment_distance(closest[:, None, :], self.a[near], self.b[near]).min(axis=1)
+        d_edge = _edge_distance(np.ascontiguousarray(closest, dtype=np.float64), self.a, self.b,
+                                np.ascontiguousarray(near, dtype=np.int64))
         on_boundary = d_edge <= 1e-9 * max(self.scale, 1.0)
         out[cand] = np.where(on_boundary, dist, 0.0)
         return out
