@@ -184,6 +184,9 @@ if __name__ == "__main__":
     ap.add_argument("--e2e-triangles", type=int, default=100220, help="0 skips the end-to-end run")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
+        t = time.perf_counter()
+        smooth(disk_job(2000, Path(tmp))[1], keep_samples=False)  # numba's compile or cache load, not in the figures
+        print(f"warm-up (numba compile or cache load): {time.perf_counter() - t:.2f} s")
         for size in args.sizes.split(","):
             if size.strip():
                 stage(float(size), Path(tmp))
