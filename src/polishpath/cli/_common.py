@@ -85,6 +85,31 @@ def _handle_signals() -> dict | None:
     return {sig: signal.signal(sig, _raise_on_signal) for sig in (signal.SIGTERM, signal.SIGINT)}
 
 
+def _redeliver_lost_interrupt(unraisable) -> None:
+    """``sys.unraisablehook`` while the guard is on: an interrupt raised inside a finalizer is raised again.
+
+    Python runs a signal's handler between any two bytecodes, also inside a
+    ``__del__`` (llvmlite frees its objects that way while numba compiles, on a
+    first run with an empty cache). An exception cannot leave a finalizer:
+    Python prints it as "Exception ignored ... Traceback" and carries on, so the
+    user's Ctrl-C or SIGTERM would be lost and a traceback shown. Here the
+    signal is sent again, from a timer thread 10 ms later (sent from the hook
+    itself, its handler would run inside the hook, where an exception is lost
+    too), so that the handler raises in ordinary code; should it land in a
+    finalizer again, this hook sends it once more. Any other unraisable
+    exception goes to the previous hook.
+    """
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and _SIGNALLED:
+        resend = threading.Timer(0.01, os.kill, (os.getpid(), _SIGNALLED[-1]))
+        resend.daemon = True
+        resend.start()
+        return
+    _PREVIOUS_UNRAISABLEHOOK[-1](unraisable)
+
+
+_PREVIOUS_UNRAISABLEHOOK: list = []
+
+
 def _interrupt_message(et: type, out: Path | None) -> tuple[str, int]:
     """What an interrupt left, said truthfully, and its exit code (130 SIGINT, 143 SIGTERM)."""
     from ..fileio import COMMITTED
@@ -128,11 +153,16 @@ class _guard:
 
     def __enter__(self):
         self._handlers = _handle_signals()
+        if self._handlers is not None:
+            _PREVIOUS_UNRAISABLEHOOK.append(sys.unraisablehook)
+            sys.unraisablehook = _redeliver_lost_interrupt
         return self
 
     def __exit__(self, et, ev, tb):
         for sig, handler in (self._handlers or {}).items():
             signal.signal(sig, handler)
+        if self._handlers is not None:
+            sys.unraisablehook = _PREVIOUS_UNRAISABLEHOOK.pop()
         if et is None or issubclass(et, (typer.Exit, SystemExit)):
             return False
         if issubclass(et, PolishPathError):
