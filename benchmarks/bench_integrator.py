@@ -7,7 +7,7 @@ For the demo job (``hemisphere --spacing 0.5 --seed 1``) and the paper's cases
 (built-ins ``saddle``, ``pentagram``, ``sinusoidal`` at 0.5 mm, ``bicycle-seat``
 at 2 mm, seed 1) the dwell points are planned once (``polishpath.run``), then
 smoothed by each integrator at the defaults (600 mm/min, 4 ms, 1 um,
-area-weighted dwell times, 3 schedule passes). Printed per case and integrator:
+area-weighted dwell times, the default schedule passes). Printed per case and integrator:
 
 * feed fluctuation max / RMS: ``|chord / (V T) - 1|`` of every step against its
   commanded feed ``V`` (the machine moves along the chord in one period);
