@@ -189,3 +189,28 @@ def test_sample_chunk_moved_to_the_core_and_still_exported():
     from polishpath.export.chunks import SampleChunk as ChunksChunk
 
     assert ExportedChunk is SampleChunk and ChunksChunk is SampleChunk
+
+
+def test_a_piece_run_in_one_go_continues_in_resumed_calls_when_it_is_long(monkeypatch, kept):
+    """A piece longer than one kernel call (samples.MAX_CALL_SAMPLES) or than the room expected is run in
+    resumed calls and joined: the same samples and figures as one call."""
+    import polishpath.smooth.samples as samples_mod
+
+    sp = kept.surface_path
+    integrator = kept.provenance.params["integrator"]
+    monkeypatch.setattr(samples_mod, "MAX_CALL_SAMPLES", 1000)
+    calls = []
+    real = interp.INTEGRATORS[integrator]
+
+    def counting(*args):
+        out = real(*args)
+        calls.append(len(out[0]))
+        return out
+
+    monkeypatch.setitem(interp.INTEGRATORS, integrator, counting)
+    short = smooth(sp, surface=None, feed_mm_min=1200.0, period_ms=4.0, chord_tol_mm=1e-3, integrator=integrator)
+    assert max(calls) <= 1000 and len(calls) > len(kept.stats["sample_pieces"])
+    assert np.array_equal(short.samples, kept.samples) and np.array_equal(short.feed_mm_min, kept.feed_mm_min)
+    assert np.array_equal(short.sample_params, kept.sample_params)
+    for key in ("chord_error_max", "feed_fluctuation_rms", "dwell_time_error_max", "dwell_time_error_rms"):
+        assert short.stats[key] == kept.stats[key], key

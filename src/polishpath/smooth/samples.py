@@ -36,6 +36,10 @@ __all__ = ["KernelRun", "iter_sample_chunks", "DEFAULT_STREAM_SAMPLES"]
 #: samples per chunk when a piece is run without holding its samples (about 10 MB of arrays)
 DEFAULT_STREAM_SAMPLES = 1 << 18
 
+#: most samples one kernel call emits when a piece is run in one go (longer pieces continue in resumed
+#: calls): under the kernels' own guard of 2 x 10^8 iterations per call, which ends a call's loop
+MAX_CALL_SAMPLES = 10**8
+
 
 class KernelRun:
     """One piece run by an integrator kernel, in chunks of at most ``size`` samples (None: in one go).
@@ -81,13 +85,14 @@ class KernelRun:
                     break
             return
         parts = []
-        room = self.cap
+        room = min(self.cap, MAX_CALL_SAMPLES)
         while state[ST_DONE] == 0.0:
             before = state[ST_COUNT]
             parts.append(self.kernel(*self.args, state, room, self.times))
             if state[ST_COUNT] == before:
                 break
-            room = max(room // 4, 1024)  # the expected count was short: a little more at a time
+            # the expected count was short (a little more at a time), or the piece is longer than one call
+            room = min(max(room // 4, 1024), MAX_CALL_SAMPLES) if room < MAX_CALL_SAMPLES else room
         if len(parts) == 1:
             yield parts[0]
         elif parts:
