@@ -61,7 +61,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["DIM", "span_point", "span_derivs", "span_of", "step_feed", "chord_step", "chord_deviation", "nudge",
+__all__ = ["DIM", "span_point", "span_derivs", "span_of", "chord_feed_limit", "step_feed", "chord_step", "chord_deviation", "nudge",
            "chord_errors_kernel", "span_bend_bounds", "chord_error_within",
            "safe_tolerance", "span_at", "region_at", "STATE_SIZE", "new_state", "chord_newton", "record_step",
            "start_piece", "step_error", "figure_error"]
@@ -245,31 +245,36 @@ def span_of(breaks, s, u):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, _nrt=False)
-def step_feed(sched, sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
-    """Feed of one step, mm/s.
+def chord_feed_limit(sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
+    """The chord-error feed limit at a curve point, mm/s (inf where the curve is straight).
 
-    ``sched`` is the scheduled feed (the dwell region's, capped by the machine
-    limit); ``sp2 = |C'|^2``, ``acc2 = |C''|^2``, ``dot = C'.C''`` at the step's
-    start give the curvature kappa. The feed is cut so that the chord error of
-    a step of length ``V T`` on a circle of radius ``rho = 1/kappa`` stays under
-    ``tol``: ``V <= 2 sqrt(2 rho tol - tol^2) / T``; never under 0.1 % of the
-    schedule.
+    ``sp2 = |C'|^2``, ``acc2 = |C''|^2``, ``dot = C'.C''`` give the curvature
+    kappa; a step of length ``V T`` on a circle of radius ``rho = 1/kappa`` keeps
+    its chord error under ``tol`` while ``V <= 2 sqrt(2 rho tol - tol^2) / T``.
+    Where the radius is under the tolerance (a near-cusp where the path doubles
+    back) the whole turn fits inside one chord and the curvature says nothing
+    useful: the limit is ``tol / T``, a crawl instead of a stall at zero speed.
+    The interpolation kernels (:func:`step_feed`) and the schedule's region
+    model (:mod:`.timing`) both use it, so the model slows where the kernels do.
     """
     sp = math.sqrt(sp2)
     kap = math.sqrt(max(sp2 * acc2 - dot * dot, 0.0)) / (sp2 * sp)
-    v = sched
     if kap > 0.0:
         rho = 1.0 / kap
         if tol < rho:
-            vlim = 2.0 * math.sqrt(2.0 * rho * tol - tol * tol) / period_s
-            v = min(v, vlim)
-        else:
-            # radius under the tolerance (a near-cusp where the path doubles back): the
-            # whole turn fits inside one chord, so the curvature limit says nothing
-            # useful; crawl at the feed floor instead of stalling at zero speed
-            v = min(v, tol / period_s)
-    # feed floor: 0.1 % of the schedule, so the tool never stalls where |C'| -> 0
-    return max(v, 1e-3 * sched)
+            return 2.0 * math.sqrt(2.0 * rho * tol - tol * tol) / period_s
+        return tol / period_s
+    return math.inf
+
+
+@numba.njit(cache=True, _nrt=False)
+def step_feed(sched, sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
+    """Feed of one step, mm/s: the scheduled feed ``sched`` (the dwell region's,
+    capped by the machine limit) cut by :func:`chord_feed_limit` at the step's
+    start; never under 0.1 % of the schedule (so the tool never stalls where
+    ``|C'| -> 0``).
+    """
+    return max(min(sched, chord_feed_limit(sp2, acc2, dot, period_s, tol)), 1e-3 * sched)
 
 
 @numba.njit(cache=True, _nrt=False)

@@ -28,25 +28,12 @@ import math
 import numba
 import numpy as np
 
-from .spans import DIM, span_at, span_derivs, span_of
+from .spans import DIM, chord_feed_limit, span_at, span_derivs, span_of
 
 __all__ = ["solve_region_feeds", "region_model_times", "corrected_targets", "DEFAULT_ORDER"]
 
 DEFAULT_ORDER = 4
 """Gauss-Legendre nodes on each side of a dwell point."""
-
-
-@numba.njit(cache=True, _nrt=False)
-def _node_limit(sp2, acc2, dot, period_s, tol):  # pragma: no cover - numba
-    """The chord-error feed limit at a point (:func:`.spans.step_feed` without the schedule), mm/s; inf on a line."""
-    sp = math.sqrt(sp2)
-    kap = math.sqrt(max(sp2 * acc2 - dot * dot, 0.0)) / (sp2 * sp)
-    if kap > 0.0:
-        rho = 1.0 / kap
-        if tol < rho:
-            return 2.0 * math.sqrt(2.0 * rho * tol - tol * tol) / period_s
-        return tol / period_s
-    return math.inf
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -73,7 +60,7 @@ def _region_nodes(breaks, coeffs, a, m, b, gx, gw, period_s, tol, lim, wt, c0, c
                 acc2 += c2[j] * c2[j]
                 dot += c1[j] * c2[j]
             wt[k] = h * gw[i] * math.sqrt(sp2)
-            lim[k] = _node_limit(sp2, acc2, dot, period_s, tol) if sp2 > 0.0 else math.inf
+            lim[k] = chord_feed_limit(sp2, acc2, dot, period_s, tol) if sp2 > 0.0 else math.inf
             k += 1
 
 
