@@ -258,12 +258,12 @@ def flatten(
 def _hole_fan_error(surface: Surface, vf, ff, tables, loops, what: str) -> FlatteningError:
     """The error of an angle solve that failed on a mesh with holes: what the fans that
     close the holes do to their rims (the usual cause), measured, and what to do."""
-    from .mabf import _corner_angles
+    from .mabf import FOLD_EXCESS, _corner_angles
 
     rim = np.concatenate([lp for i, lp in enumerate(loops) if i != outer_loop_index(surface.vertices, loops)])
     sums = np.bincount(tables.corner_vertex, weights=_corner_angles(vf, ff), minlength=len(vf))[rim]
     excess = sums - 2.0 * np.pi  # 0 at a rim vertex whose fan lies flat beside its real faces
-    folded = int(np.count_nonzero(excess > 0.1))
+    folded = int(np.count_nonzero(excess > FOLD_EXCESS))
     return FlatteningError(
         f"{what} {surface.name!r} has {len(loops) - 1} hole(s), which the solve closes with fans of virtual "
         f"triangles around each hole's centroid; at {folded} rim vertex(es) those fans fold over the real faces "
