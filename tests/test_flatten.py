@@ -614,6 +614,12 @@ def test_schur_blocks_and_solve_match_the_explicit_matrices(weights):
     S = (J2 @ P @ J2.T).toarray()
     assert np.allclose(sch.K.toarray(), S[:Vi, :Vi], atol=1e-12)
     assert np.allclose(sch.M.toarray(), S[Vi:, Vi:], atol=1e-10)
+    # linear="direct": the whole S from the three blocks of one pass, gathered once
+    from polishpath.flatten.schur import _Coupled
+
+    Sc = _Coupled(t, dinv, "superlu").matrix(cot)
+    assert np.allclose(Sc.toarray(), S, atol=1e-10)
+    assert Sc.has_sorted_indices and Sc.nnz == 4 * sch.K.nnz
     # every column's rows are sorted and unique (what CHOLMOD expects)
     for j in range(Vi):
         rows = sch.K.indices[sch.K.indptr[j] : sch.K.indptr[j + 1]]

@@ -28,12 +28,10 @@ import time
 
 import numba
 import numpy as np
-import scipy.sparse as sp
 
 from .. import meshops
 from ..errors import FlatteningError, ParameterError
-from .linalg import factor_spd
-from .schur import _Schur, _SchurPattern
+from .schur import _Coupled, _Schur, _SchurPattern
 from .topology import CornerTables, corner_tables, vertex_sum_matrix, wheel_pattern
 
 
@@ -345,52 +343,39 @@ def _mabf_solve(t, beta_raw, weights, *, min_angle, tol, max_iter, refactor, fac
         except _PcgStalled:
             stats["pcg_stalled"] = True  # fall back to the direct solve below, from the start
     stats["linear"] = "direct"
-    B = vertex_sum_matrix(t)
-    wr, wc, ws = wheel_pattern(t)
-    dsum = dinv.reshape(-1, 3).sum(axis=1)  # A W^-1 A^T, diagonal (F,)
+    return _mabf_direct(t, beta, dinv, alpha, stats, tol=tol, max_iter=max_iter, min_angle=min_angle,
+                        refactor=refactor, stop_on_damping=stop_on_damping, solver=solver, t0=t0, reuse=reuse)
 
-    def a1t(y):  # A^T y : spread a per-face value to its corners
-        return np.repeat(y, 3)
 
-    def a1(x):  # A x : per-face sums
-        return x.reshape(-1, 3).sum(axis=1)
-
-    solve = None
+def _mabf_direct(t, beta, dinv, alpha, stats, *, tol, max_iter, min_angle, refactor, stop_on_damping, solver, t0,
+                 reuse):
+    """Newton steps on the assembled, factorised ``S`` (:class:`_Coupled`): the first
+    ``refactor`` steps refactorise, later ones reuse the factor (chord steps) unless a
+    step reduced the largest residual by less than 4x. Each step solves the linearised
+    QP exactly: ``S lam = J2 (alpha - x0) - c(alpha)``, ``alpha' = x0 + P J2^T lam`` with
+    ``x0`` the triangle-sum projection of ``beta``; on chord steps ``J2`` is the
+    Jacobian of the last factorisation (consistent with its factor)."""
+    F = t.n_faces
+    if "pattern" not in reuse:
+        reuse["pattern"] = _SchurPattern(t, solver)
+    cs = _Coupled(t, dinv, solver, reuse["pattern"])
+    if "coupled" in reuse:
+        cs.factorizer = reuse["coupled"]  # an earlier attempt's: same pattern, its ordering
+    x0 = beta + dinv * np.repeat((np.pi - beta.reshape(-1, 3).sum(axis=1)) / cs.dsum, 3)
     it = 0
-    res = constraint_residuals(t, alpha)
+    step = 0.0
+    res = cs.residuals(alpha)
     worst = np.inf
     ratio = 0.0
     for it in range(1, max_iter + 1):
-        # refactorise for the first `refactor` steps, and whenever a chord step
-        # reduced the residual by less than 4x (the frozen Jacobian went stale)
-        fresh = solve is None or it <= refactor or ratio > 0.25
-        if fresh:
-            cot = 1.0 / np.tan(alpha)
-            Jw = sp.csr_matrix((ws * cot[wc], (wr, wc)), shape=(Vi, 3 * F))
-            J2 = sp.vstack([B, Jw], format="csr")
-        # linearised targets: J2 x = J2 alpha - C2(alpha), A x = pi. On chord steps
-        # J2 is the Jacobian of the last factorisation (consistent with its factor).
-        t2 = J2 @ alpha - np.concatenate([res["vertex"], res["wheel"]])
-        r1 = np.pi - a1(beta)
-        r2 = t2 - J2 @ beta
-        if fresh:
-            # Schur complement S = J2 P J2^T, P = W^-1 - W^-1 A^T (A W^-1 A^T)^-1 A W^-1,
-            # written as J2 W^-1 J2^T - G G^T with G = J2 W^-1 A^T diag(dsum)^-1/2.
-            J2D = J2 @ sp.diags(dinv)
-            G = J2D @ sp.csr_matrix(
-                (np.repeat(1.0 / np.sqrt(dsum), 3), (np.arange(3 * F), np.arange(3 * F) // 3)), shape=(3 * F, F)
-            )
-            S = (J2D @ J2.T - G @ G.T).tocsc()
-            stats["schur_nnz"] = int(S.nnz)
-            solve = factor_spd(S, solver)
+        if cs.solve is None or it <= refactor or ratio > 0.25:
+            cs.set_jacobian(1.0 / np.tan(alpha))
+            reuse["coupled"] = cs.factorizer
+            stats["schur_nnz"] = cs.nnz
             stats["factorizations"] += 1
-        rhs = r2 - J2 @ (dinv * a1t(r1 / dsum))
-        lam2 = solve(rhs)
-        jt2 = J2.T @ lam2
-        lam1 = (r1 - a1(dinv * jt2)) / dsum
-        new = beta + dinv * (a1t(lam1) + jt2)
-        alpha, _, step = _take_step(alpha, new, min_angle, stop_on_damping, stats)
-        res = constraint_residuals(t, alpha)
+        lam = cs.solve(cs.j(alpha - x0) - np.concatenate([res["vertex"], res["wheel"]]))
+        alpha, _, step = _take_step(alpha, x0 + cs.jt_proj(lam), min_angle, stop_on_damping, stats)
+        res = cs.residuals(alpha)
         if stats.get("stopped_on_damping"):
             break
         prev, worst = worst, max(float(np.abs(r).max()) if len(r) else 0.0 for r in res.values())

@@ -134,6 +134,34 @@ def _kernel_blocks(rows, cot, dinv, dsum, with_wheel, out):  # pragma: no cover 
 
 
 @numba.njit(cache=True)
+def _kernel_blocks3(rows, cot, dinv, dsum, outk, outc, outm):  # pragma: no cover - numba
+    # per-face 3x3 blocks of K = B P B^T, C = B P Jw^T and M = Jw P Jw^T, row-major (F, 9):
+    # the blocks of the coupled S that linear="direct" factorises (one pass for all three)
+    P = np.empty((3, 3))
+    J = np.zeros((3, 3))
+    JP = np.empty((3, 3))
+    for f in range(rows.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                P[a, b] = -dinv[3 * f + a] * dinv[3 * f + b] / dsum[f]
+            P[a, a] += dinv[3 * f + a]
+        for a in range(3):
+            a1 = (a + 1) % 3
+            a2 = (a + 2) % 3
+            J[a, a] = 0.0
+            J[a, a1] = cot[3 * f + a1]
+            J[a, a2] = -cot[3 * f + a2]
+        for a in range(3):
+            for b in range(3):
+                JP[a, b] = J[a, 0] * P[0, b] + J[a, 1] * P[1, b] + J[a, 2] * P[2, b]
+        for a in range(3):
+            for b in range(3):
+                outk[f, 3 * a + b] = P[a, b]
+                outc[f, 3 * a + b] = JP[b, a]  # (P J^T)[a, b], P symmetric
+                outm[f, 3 * a + b] = JP[a, 0] * J[b, 0] + JP[a, 1] * J[b, 1] + JP[a, 2] * J[b, 2]
+
+
+@numba.njit(cache=True)
 def _kernel_residuals(alpha, rows, n_interior, tri, vert, wheel):  # pragma: no cover - numba
     for i in range(n_interior):
         vert[i] = -2.0 * np.pi
@@ -234,12 +262,22 @@ class _SchurPattern:
         n = t.n_interior
         self.indptr, self.indices, self.slot = _kernel_pattern(self.rows, n)
         self.nnz = len(self.indices)
-        ones = sp.csc_matrix((_kernel_scatter(self.slot, np.ones(9 * t.n_faces), self.nnz), self.indices, self.indptr),
-                             shape=(n, n))
-        # AMD: METIS orders 25-30 % less fill on these 2D-mesh patterns, but its
-        # analysis costs 7x AMD's (0.75 vs 0.1 s at 100k rows, 3.4 vs 0.5 s at 400k),
-        # more than its cheaper factorisations and solves save in a run
-        self.factorizer = SpdFactorizer(ones, solver, ordering="amd")
+        self.n_faces = t.n_faces
+        self._solver = solver
+        self._factorizer = None
+
+    @property
+    def factorizer(self) -> SpdFactorizer:
+        """The factoriser of ``K`` and ``M`` (made at first use: ``linear="direct"`` needs none)."""
+        if self._factorizer is None:
+            n = len(self.indptr) - 1
+            ones = sp.csc_matrix((_kernel_scatter(self.slot, np.ones(9 * self.n_faces), self.nnz), self.indices,
+                                  self.indptr), shape=(n, n))
+            # AMD: METIS orders 25-30 % less fill on these 2D-mesh patterns, but its
+            # analysis costs 7x AMD's (0.75 vs 0.1 s at 100k rows, 3.4 vs 0.5 s at 400k),
+            # more than its cheaper factorisations and solves save in a run
+            self._factorizer = SpdFactorizer(ones, self._solver, ordering="amd")
+        return self._factorizer
 
 
 class _Schur:
@@ -263,13 +301,17 @@ class _Schur:
         self.dinv = np.ascontiguousarray(dinv, dtype=np.float64)
         self.dsum = self.dinv.reshape(-1, 3).sum(axis=1)
         pat = _SchurPattern(t, solver) if pattern is None else pattern
+        self.pattern = pat
         self.rows = pat.rows
         self._indptr, self._indices, self._slot, self._nnz = pat.indptr, pat.indices, pat.slot, pat.nnz
-        self.factorizer = pat.factorizer
         self.cot = np.zeros(3 * F)
+        self.solve_M = None
+        self._init_blocks()
+
+    def _init_blocks(self) -> None:
+        self.factorizer = self.pattern.factorizer
         self.K = self._block(None)
         self.solve_K = self.factorizer.factor(self.K)
-        self.solve_M = None
 
     def _csc(self, vals: np.ndarray) -> sp.csc_matrix:
         data = _kernel_scatter(self._slot, vals, self._nnz)
@@ -364,3 +406,55 @@ class _Schur:
                 p = z + (rz_new / rz) * p
                 rz = rz_new
         return np.concatenate([k1 - u, x]), k, err
+
+
+class _Coupled(_Schur):
+    """``S = J2 P J2^T`` assembled, for ``linear="direct"``: ``[[K, C], [C^T, M]]`` (2 Vi x
+    2 Vi) on the 1-ring pattern tiled 2 x 2, its three blocks from one numba pass over the
+    faces (:func:`_kernel_blocks3`) gathered into one CSC matrix with index arrays made
+    once; factorised at :meth:`set_jacobian` with the ordering and elimination tree of
+    the first factorisation (``SpdFactorizer.refactor``). The products ``J2 x``,
+    ``P J2^T y`` and the residuals are :class:`_Schur`'s (face by face)."""
+
+    def _init_blocks(self) -> None:
+        n, nnz = self.Vi, self._nnz
+        indptr, indices = self._indptr, self._indices
+        lens = np.diff(indptr)
+        pos = np.arange(nnz)
+        col = np.repeat(np.arange(n), lens)
+        first = indptr[col] + pos  # entry k of column j of a block, in S's column j (or n + j)
+        second = first + lens[col]
+        # C^T on the same (symmetric) pattern: the entry of C at the mirrored position
+        tr = sp.csc_matrix((pos + 1.0, indices, indptr), shape=(n, n)).T.tocsc()
+        tr.sort_indices()
+        transpose = tr.data.astype(np.int64) - 1
+        g = np.empty(4 * nnz, np.int64)
+        ind = np.empty(4 * nnz, np.int64)
+        for half, (top, bottom) in enumerate(((pos, nnz + transpose), (nnz + pos, 2 * nnz + pos))):
+            # sources: [K, C, M] data; C read at the mirrored entries for C^T
+            g[2 * nnz * half + first] = top
+            g[2 * nnz * half + second] = bottom
+            ind[2 * nnz * half + first] = indices
+            ind[2 * nnz * half + second] = indices + n
+        self._gather = g
+        self._s_indices = ind
+        self._s_indptr = np.concatenate([[0], np.cumsum(np.concatenate([2 * lens, 2 * lens]))])
+        self.factorizer = None
+        self.solve = None
+
+    def matrix(self, cot: np.ndarray) -> sp.csc_matrix:
+        """``S`` at the Jacobian given by the corner cotangents ``cot`` (3F,)."""
+        outk, outc, outm = (np.empty((self.F, 9)) for _ in range(3))
+        _kernel_blocks3(self.rows, np.ascontiguousarray(cot), self.dinv, self.dsum, outk, outc, outm)
+        kd, cd, md = (_kernel_scatter(self._slot, o.ravel(), self._nnz) for o in (outk, outc, outm))
+        data = np.concatenate([kd, cd, md])
+        return sp.csc_matrix((data[self._gather], self._s_indices, self._s_indptr), shape=(2 * self.Vi, 2 * self.Vi))
+
+    def set_jacobian(self, cot: np.ndarray, refactor_m: bool = True) -> None:
+        """Linearise at ``cot`` and factorise ``S`` there (the chord steps in between keep both)."""
+        self.cot = np.ascontiguousarray(cot)
+        S = self.matrix(self.cot)
+        self.nnz = int(S.nnz)
+        if self.factorizer is None:
+            self.factorizer = SpdFactorizer(S, self.pattern._solver)
+        self.solve = self.factorizer.refactor(S)
