@@ -39,6 +39,12 @@ def test_qdldl_refactor_reuses_the_first_analysis_and_solves_the_new_matrix(monk
     sb = fz.refactor(B)
     assert len(made) == 1  # the second factorisation reused the first one's ordering
     assert np.allclose(B @ sb(b), b, atol=1e-9)
+    # another slot keeps its own factor (MABF's pcg holds K's and M's at once)
+    sk = fz.refactor(A, slot="K")
+    assert len(made) == 2
+    assert np.allclose(A @ sk(b), b, atol=1e-9) and np.allclose(B @ sb(b), b, atol=1e-9)
+    fz.refactor(B, slot="K")
+    assert len(made) == 2 and np.allclose(B @ sk(b), b, atol=1e-9)
     # a matrix whose pivots are not all positive is refused after a refactorisation too
     with pytest.raises(linalg.FlatteningError, match="not positive definite"):
         fz.refactor((A - sp.diags(np.full(300, 1e3))).tocsc())

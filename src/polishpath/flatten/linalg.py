@@ -210,29 +210,32 @@ class SpdFactorizer:
             return lu.solve
         return factor_spd(S, self.backend)
 
-    def refactor(self, S: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
+    def refactor(self, S: sp.spmatrix, slot: str = "") -> Callable[[np.ndarray], np.ndarray]:
         """As :meth:`factor`, for a sequence of matrices of which only the last one's
-        factor is needed (``solve`` of an earlier ``refactor`` then solves with the new
-        one). With QDLDL the second and later calls refactorise numerically with the
-        first one's AMD ordering and elimination tree (``qdldl.Solver.update``): AMD
-        and the symbolic step are 30-55 % of a QDLDL factorisation of MABF's matrices
-        (lion 8.3k rows: 11.8 ms fresh, 5.1 ms update; face.obj 25.8k rows: 46 / 27 ms).
-        Other backends factorise anew (scikit-sparse with its one analysis)."""
+        factor is needed in each ``slot`` (``solve`` of an earlier ``refactor`` in the same
+        slot then solves with the new one; other slots keep theirs). With QDLDL the
+        second and later calls of a slot refactorise numerically with its first one's AMD
+        ordering and elimination tree (``qdldl.Solver.update``, the same factor bit for
+        bit): AMD and the symbolic step are 30-55 % of a QDLDL factorisation of MABF's
+        matrices (lion 8.3k rows: 11.8 ms fresh, 5.1 ms update; face.obj 25.8k rows:
+        46 / 27 ms). Other backends factorise anew (scikit-sparse with its one analysis)."""
         if self.backend != "qdldl":
             return self.factor(S)
-        fac = getattr(self, "_last", None)
-        if fac is None:
-            return self._factor_qdldl(S, keep=True)
+        if not hasattr(self, "_slots"):
+            self._slots = {}
+        if slot not in self._slots:
+            return self._factor_qdldl(S, keep=slot)
+        fac, pattern = self._slots[slot]
         U = self._upper.matrix(S)
-        if not (np.array_equal(U.indptr, self._last_pattern[0]) and np.array_equal(U.indices, self._last_pattern[1])):
-            return self._factor_qdldl(S, keep=True)  # another pattern: a fresh analysis
+        if not (np.array_equal(U.indptr, pattern[0]) and np.array_equal(U.indices, pattern[1])):
+            return self._factor_qdldl(S, keep=slot)  # another pattern: a fresh analysis
         try:
             fac.update(U, upper=True)
         except (RuntimeError, ValueError) as exc:
             raise _singular(exc) from exc
         return self._checked(fac)
 
-    def _factor_qdldl(self, S: sp.spmatrix, keep: bool = False) -> Callable[[np.ndarray], np.ndarray]:
+    def _factor_qdldl(self, S: sp.spmatrix, keep: str | None = None) -> Callable[[np.ndarray], np.ndarray]:
         import qdldl
 
         # one solver per matrix (MABF's pcg keeps the factors of K and M at once); its
@@ -242,8 +245,8 @@ class SpdFactorizer:
             fac = qdldl.Solver(U, upper=True)
         except (RuntimeError, ValueError) as exc:
             raise _singular(exc) from exc
-        if keep:
-            self._last, self._last_pattern = fac, (U.indptr.copy(), U.indices.copy())
+        if keep is not None:
+            self._slots[keep] = (fac, (U.indptr.copy(), U.indices.copy()))
         return self._checked(fac)
 
     def _checked(self, fac) -> Callable[[np.ndarray], np.ndarray]:

@@ -311,7 +311,9 @@ class _Schur:
     def _init_blocks(self) -> None:
         self.factorizer = self.pattern.factorizer
         self.K = self._block(None)
-        self.solve_K = self.factorizer.factor(self.K)
+        # refactor: a second attempt with other weights (MABF's "auto") reuses the first
+        # attempt's orderings; K and M keep a factor each
+        self.solve_K = self.factorizer.refactor(self.K, slot="K")
 
     def _csc(self, vals: np.ndarray) -> sp.csc_matrix:
         data = _kernel_scatter(self._slot, vals, self._nnz)
@@ -326,7 +328,7 @@ class _Schur:
         self.cot = np.ascontiguousarray(cot)
         if refactor_m or self.solve_M is None:
             self.M = self._block(self.cot)
-            self.solve_M = self.factorizer.factor(self.M)
+            self.solve_M = self.factorizer.refactor(self.M, slot="M")
 
     def jt_proj(self, y: np.ndarray) -> np.ndarray:
         """``P J2^T y`` (corner vector)."""
@@ -457,4 +459,4 @@ class _Coupled(_Schur):
         self.nnz = int(S.nnz)
         if self.factorizer is None:
             self.factorizer = SpdFactorizer(S, self.pattern._solver)
-        self.solve = self.factorizer.refactor(S)
+        self.solve = self.factorizer.refactor(S, slot="S")
