@@ -114,3 +114,25 @@ def test_bulk_formatting_prints_exactly_what_python_prints():
     # huge values: the exact fallback; letters and words left out
     assert format_fixed(np.array([[1e300, 2.0]]), 4, letters="XY").decode() == f"X{1e300:.4f} Y2.0000\n"
     assert format_fixed(np.array([[1.0, 2.0]]), 4, letters="XY", present=np.array([[False, True]])) == b"Y2.0000\n"
+
+
+def test_compact_fixed_point_styles():
+    """G-code's compact numbers (no leading zero, no trailing zeros, a kept point on whole numbers), compiled and
+    Python's alike, and read back to the same value."""
+    from polishpath.export.textfmt import KEEP_POINT, NO_LEADING_ZERO, NO_TRAILING_ZEROS, fixed_text, format_fixed
+
+    rng = np.random.default_rng(11)
+    v = np.concatenate([rng.normal(size=3000) * 10.0 ** rng.integers(-5, 4, 3000), [0.0, -0.0, 4e-5, -4e-5, 5e-5,
+                                                                                     10.0, -10.0, 0.5, -0.5, 100.0]])
+    v = np.array([np.round(x, int(k)) for x, k in zip(v, rng.integers(0, 6, len(v)))])
+    for style in range(8):
+        for d in (0, 2, 4):
+            got = format_fixed(v[:, None], d, letters="X", styles=style, sep="").decode().split()
+            assert got == ["X" + fixed_text(x, d, style) for x in v]
+            assert np.array_equal([float(w[1:]) for w in got], np.round(v, d) + 0.0)
+    row = np.array([[1.0, 0.5, -0.25, 0.0, 10.0, 12.5]])
+    assert format_fixed(row, 4, letters="GXYZIJ", sep="", styles=NO_LEADING_ZERO | NO_TRAILING_ZEROS) == \
+        b"G1X.5Y-.25Z0I10J12.5\n"
+    assert format_fixed(row, 4, letters="GXYZIJ", sep=" ", styles=NO_TRAILING_ZEROS | KEEP_POINT) == \
+        b"G1. X0.5 Y-0.25 Z0 I10. J12.5\n"
+    assert format_fixed(row, 4, letters="GXYZIJ", styles=0) == b"G1.0000 X0.5000 Y-0.2500 Z0.0000 I10.0000 J12.5000\n"

@@ -232,7 +232,7 @@ def test_linuxcnc_is_refused_nurbs_which_rs274_cannot_read(rs274, small_job, tmp
     assert "Traceback" not in r.stderr
     out = _plan(tmp_path / "fanuc", "hemisphere:R=12,triangles=700", "--spacing", "2", "--seed", "1", "--post", "fanuc")
     text = (out / "toolpath.nc").read_text()
-    assert "\nG06.2 P4 " in text and "FANUC 15i/30i-CLASS" in text
+    assert "\nG06.2P4K" in text and "FANUC 15i/30i-CLASS" in text
     # why: LinuxCNC's interpreter stops at the first G06.2 block
     canon = rs274(out / "toolpath.nc")
     assert not canon.ok and any("Unknown g code" in e for e in canon.errors)

@@ -38,6 +38,11 @@ def tool_path():
     return smooth(sp, feed_mm_min=3000.0, period_ms=8.0, chord_tol_mm=5e-3)
 
 
+def _words(line: str) -> dict[str, float]:
+    """The address words of one block (with or without spaces between them), letter -> value."""
+    return {L: float(v) for L, v in re.findall(r"([A-Z])([-+]?\d*\.?\d*)", line)}
+
+
 def _lines(text: str) -> list[str]:
     return [ln for ln in text.splitlines() if ln and not ln.startswith("(") and ln != "%"]
 
@@ -125,22 +130,25 @@ def test_linuxcnc_program_in_order(tool_path):
     i = 5
     for a, b in pieces:
         # clearance plane, above the approach point, down to it, then along the normal onto the part
-        assert body[i].startswith("G00 Z") and body[i + 1].startswith("G00 X") and body[i + 2].startswith("G00 Z")
-        safe = float(body[i][5:])
-        q0 = np.array([float(v[1:]) for v in body[i + 1].split()[1:]] + [float(body[i + 2][5:])])
+        assert body[i].startswith("G00Z") and body[i + 1].startswith("G00X") and body[i + 2].startswith("G00Z")
+        safe = _words(body[i])["Z"]
+        w1, w2 = _words(body[i + 1]), _words(body[i + 2])
+        q0 = np.array([w1["X"], w1["Y"], w2["Z"]])
         p0 = tool_path.samples[a]
         assert np.abs(q0 - (p0 + 2.0 * normals[a])).max() <= 1e-4
-        assert body[i + 3].startswith("G01 X") and body[i + 3].endswith("F300.000")
-        # the path's blocks: modal words only (G01 is in force from the approach)
+        assert body[i + 3].startswith("G01X") and body[i + 3].endswith("F300")
+        # the path's blocks: modal words only (G01 is in force from the approach), no separator between words
         j = i + 4
         while not body[j].startswith("G01"):
-            assert body[j][0] in "XYZF" or body[j].split()[0] in ("G1", "G2", "G3"), body[j]
+            assert body[j][0] in "XYZF" or body[j][:2] in ("G1", "G2", "G3"), body[j]
+            assert " " not in body[j] and re.fullmatch(r"(?:[GXYZIJF]-?\d*\.?\d+)+", body[j]), body[j]
             j += 1
         assert j - (i + 4) < b - a - 1  # fewer blocks than samples: merged within the tolerances
         # retract along the end normal at the approach feed, back to the clearance plane
-        q1 = np.array([float(v[1:]) for v in body[j].split()[1:4]])
+        w = _words(body[j])
+        q1 = np.array([w["X"], w["Y"], w["Z"]])
         assert np.abs(q1 - (tool_path.samples[b - 1] + 2.0 * normals[b - 1])).max() <= 1e-4
-        assert body[j].endswith("F300.000") and body[j + 1] == f"G00 Z{safe:.4f}"
+        assert body[j].endswith("F300") and _words(body[j + 1]) == {"G": 0.0, "Z": safe}
         assert safe >= tool_path.samples[:, 2].max() + 5.0 - 1e-9
         i = j + 2
     assert body[i:] == ["M5 M9", "M30"]
@@ -167,15 +175,16 @@ def test_tool_radius_writes_the_centre_with_inverse_time_feeds(tool_path):
         assert np.abs(pts - centre).max() <= RES
         assert np.abs(np.linalg.norm(pts - tool_path.samples[a:b], axis=1) - r).max() <= 1e-4
         # inverse time: F = 1 / minutes of the block, the planned time whatever the offset
-        assert inv.all() and np.allclose(60.0 / feed, dt[a + 1 : b], rtol=1e-6)
+        # (F rounded to the digits feed_resolution needs: within 0.1 %)
+        assert inv.all() and np.abs(60.0 / feed / dt[a + 1 : b] - 1).max() <= FEED_RES * (1 + 1e-9)
     body = _lines(text)
     g93 = [i for i, ln in enumerate(body) if ln == "G93"]
     # G93 only around the path moves: the approach and retract are in mm/min; F on every block in G93
-    assert all(body[i - 1].endswith("F300.000") and body[i - 1].startswith("G01") for i in g93)
+    assert all(body[i - 1].endswith("F300") and body[i - 1].startswith("G01") for i in g93)
     for i in g93:
         j = i + 1
         while body[j] != "G94":
-            assert " F" in body[j] or body[j].startswith("F"), body[j]
+            assert "F" in body[j], body[j]
             j += 1
 
 def test_per_minute_feed_is_rescaled_to_the_driven_point(tool_path):
@@ -207,7 +216,7 @@ def test_linuxcnc_refuses_nurbs_and_bad_modes(tool_path):
 # --------------------------------------------------------------------------- fanuc
 
 
-_WORD = re.compile(r"([A-Z])([-+]?\d+(?:\.\d*)?)")
+_WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")  # Fanuc reads X10. X.5 X-.5
 
 
 def fanuc_check(text: str) -> list[dict]:
@@ -301,7 +310,7 @@ def test_fanuc_check_catches_a_broken_program(tool_path):
     with pytest.raises(AssertionError, match="knots = control points"):
         fanuc_check("\n".join(lines[:last_k] + lines[last_k + 1:]))
     with pytest.raises(AssertionError, match="address words"):
-        fanuc_check(text.replace("G06.2 P4", "G06.2 P4 #1", 1))
+        fanuc_check(text.replace("G06.2P4", "G06.2P4#1", 1))
 
 
 def test_fanuc_with_tool_radius_offsets_the_dwell_points(tool_path):
@@ -346,7 +355,7 @@ def test_machining_time_is_the_feed_moves_of_the_file(tool_path, tmp_path):
     assert info["segmenting"] == "chord" and info["motion_blocks"] < len(tool_path.samples)
     assert info["lines_per_dwell_point"] == pytest.approx(info["motion_blocks"] / len(tool_path.surface_path.xyz))
     assert info["machining_time_s"] == pytest.approx(info["path_time_s"] + n_pieces * 2 * 2.0 * 60 / 300.0)
-    assert (tmp_path / "toolpath.nc").read_text().count("\nG00 Z") == 3 * n_pieces
+    assert (tmp_path / "toolpath.nc").read_text().count("\nG00Z") == 3 * n_pieces
 
 
 # --------------------------------------------------------------------------- the job's options
@@ -374,7 +383,9 @@ def test_post_options_from_the_command_line_and_a_post_table(tmp_path):
     zs = [ln.params["Z"] for ln in parse_gcode_lines(nc) if "Z" in ln.params and abs(ln.params["Z"] - safe) > 1e-4]
     # 8 mm over the highest point the tool can reach (a bound from the curve's control points)
     assert max(zs) + 8.0 - 1e-4 <= safe <= max(zs) + 8.0 + 0.5
-    assert f"\nG00 Z{s['post']['clearance_z_mm']:.4f}\n" in nc
+    from polishpath.export.textfmt import fixed_text
+
+    assert f"\nG00Z{fixed_text(s['post']['clearance_z_mm'], 4, 3)}\n" in nc
     # the run's own job.toml keeps the [post] table: re-running it writes the same G-code
     r = subprocess.run([*base, "--config", str(tmp_path / "a" / "job.toml"), "-o", str(tmp_path / "b")],
                        capture_output=True, text=True)
@@ -384,7 +395,7 @@ def test_post_options_from_the_command_line_and_a_post_table(tmp_path):
     r = subprocess.run([*base, "--config", str(job), "--post", "fanuc", "-o", str(tmp_path / "c")],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert "\nG06.2 P4" in (tmp_path / "c" / "toolpath.nc").read_text()
+    assert "\nG06.2P4" in (tmp_path / "c" / "toolpath.nc").read_text()
     job.write_text(job.read_text().replace("spindle_rpm = 100", "spindle = 100"))
     r = subprocess.run([*base, "--config", str(job), "-o", str(tmp_path / "d")], capture_output=True, text=True)
     assert r.returncode == 2 and "unknown post setting(s) spindle" in r.stderr and "Traceback" not in r.stderr
@@ -416,7 +427,7 @@ def test_segment_options_from_the_command_line_and_a_job_file(tmp_path):
     assert post["time_tol"] == 0.02 and post["motion_blocks"] > json.loads(
         (tmp_path / "a" / "summary.json").read_text())["post"]["motion_blocks"]
     nc = (tmp_path / "b" / "toolpath.nc").read_text()
-    assert "(segment_chord_tol_mm: 0.005)" in nc and "\nG2 " not in nc and "\nG3 " not in nc
+    assert "(segment_chord_tol_mm: 0.005)" in nc and re.search(r"\nG[23][XY]", nc) is None
     # the run's job.toml keeps them: re-running it writes the same G-code
     r = subprocess.run([*base, "--config", str(tmp_path / "b" / "job.toml"), "-o", str(tmp_path / "c")],
                        capture_output=True, text=True)
@@ -633,25 +644,26 @@ def test_modal_words_parse_back_with_both_parsers_to_the_same_points(tool_path):
     text = _gcode(tool_path)
     pos, f, mode = {}, None, None
     for ln in _lines(text):
-        words = dict((w[0], float(w[1:])) for w in ln.split() if w[0] in "XYZFIJG")
+        words = {k: v for k, v in _words(ln).items() if k in "XYZFIJG"}
         if ln.startswith(("G01", "G00")):
             mode = "G01" if ln.startswith("G01") else None
-        elif ln[0] in "XYZF" or ln.split()[0] in ("G1", "G2", "G3"):
+        elif ln[0] in "XYZF" or re.match(r"G[123][XYZF]", ln):
             if ln[0] == "G":
-                g = ln.split()[0]
+                g = ln[:2]
                 assert g in ("G1", "G2", "G3") and g != {"G01": "G1"}.get(mode, mode), ln
                 mode = g
             assert ("I" in words and "J" in words) == (mode in ("G2", "G3")), ln
             for axis in "XYZ":
                 if axis in words:
                     assert words[axis] != pos.get(axis), ln
-            if "F" in words:
-                assert abs(words["F"] - f) > FEED_RES * f, ln
+            if "F" in words:  # the block's own feed was off the F in force by more than FEED_RES; F is rounded
+                step = 10.0 ** np.floor(np.log10(2 * FEED_RES * words["F"]))  # to the digits FEED_RES needs
+                assert abs(words["F"] - f) > FEED_RES * f - 0.5 * step and words["F"] != f, ln
         pos.update({k: v for k, v in words.items() if k in "XYZ"})
         f = words.get("F", f)
     body = _lines(text)
     assert sum(ln.startswith("G01") for ln in body) == 2 * len(_pieces_of(tool_path))  # the approach, the retract
-    assert any(ln.startswith("G2 ") for ln in body) and any(ln.startswith("G3 ") for ln in body)
+    assert any(re.match("G2X", ln) for ln in body) and any(re.match("G3X", ln) for ln in body)
 
 
 def test_a_coarser_tolerance_writes_fewer_blocks_and_the_counts_are_reported(tool_path):
@@ -742,3 +754,58 @@ def test_streamed_run_folder_files_equal_the_in_memory_ones(tool_path, tmp_path)
         write_program(bare, b, chunks=bad)
     with pytest.raises(ExportError, match=r"\(m >= 1, 3\)"):
         SampleChunk(np.zeros((0, 3)), np.zeros(0), np.zeros(0), 0)
+
+
+# --------------------------------------------------------------------------- compact words (issue 15)
+
+
+def test_compact_words_read_back_as_the_spaced_layout(tool_path):
+    """No separator, no leading zero, no trailing zeros (the defaults): both parsers read the same moves as from
+    the old layout (spaces, X0.5000), and F carries only the digits its 0.1 % resolution needs."""
+    compact = _gcode(tool_path)
+    spaced = _gcode(tool_path, word_separator=" ", leading_zero=True, trailing_zeros=True)
+    assert len(compact) < 0.9 * len(spaced)
+    body = [ln for ln in _lines(compact) if ln[0] in "XYZFG" and not ln.startswith(("G00", "G01", "G2", "G4", "G6"))]
+    assert not any(" " in ln for ln in body)
+    assert any(re.search(r"[XYIJ]-?\.\d", ln) for ln in body)  # X.5, I-.0924
+    assert not any(re.search(r"[XYZIJ]-?\d*\.\d*0(?![\d])", ln) for ln in body)  # no trailing zero
+    assert any(" X0." in ln or "X0." in ln for ln in _lines(spaced))
+    for parse in (moves_gcodeparser, moves_pygcode):
+        a, b = parse(compact), parse(spaced)
+        assert np.array_equal(a.ends, b.ends) and np.array_equal(a.feed, b.feed)
+        assert np.array_equal(a.centres, b.centres, equal_nan=True) and np.array_equal(a.turns, b.turns)
+    # F: within FEED_RES of its value at the old 3 decimals, with at most the digits FEED_RES needs
+    fs = [float(m) for m in re.findall(r"F(\d*\.?\d*)", "\n".join(body))]
+    decimals = [len(m) for m in re.findall(r"F\d*\.?(\d*)", "\n".join(body))]
+    assert fs and all(d <= max(0, -np.floor(np.log10(2 * FEED_RES * f))) for f, d in zip(fs, decimals))
+    old = _gcode(tool_path, feed_decimals=3)
+    assert re.search(r"F\d+\.\d{3}\n", old)
+
+
+def test_rounded_feeds_keep_their_resolution():
+    from polishpath.export.post.blocks import round_feeds
+
+    f = np.exp(np.random.default_rng(3).uniform(np.log(1.0), np.log(1e5), 20000))
+    r = round_feeds(f, None, 1e-3)
+    assert np.abs(r / f - 1).max() <= 1e-3 * (1 + 1e-12)
+    assert np.abs(r / f - 1).max() > 2e-4  # not more digits than needed
+    assert list(round_feeds(np.array([300.403, 577.298, 5432.1, 49.87]), None, 1e-3)) == [300.4, 577.0, 5430.0, 49.87]
+    assert list(round_feeds(np.array([300.4031]), 3, 1e-3)) == [300.403]
+
+
+@pytest.mark.parametrize("bad, words", [
+    ({"word_separator": ","}, "word_separator must be"),
+    ({"leading_zero": "no"}, "leading_zero must be true or false"),
+    ({"feed_decimals": -1}, "feed_decimals must be a whole number 0..9 .or left out"),
+])
+def test_bad_word_settings_are_refused_by_name(bad, words):
+    with pytest.raises(ParameterError, match=words):
+        get_post("linuxcnc", bad)
+
+
+def test_fanuc_keeps_the_point_of_whole_numbers(tool_path):
+    text = _gcode(tool_path, post="fanuc", mode="linear", approach_mm=3.0, clearance_mm=4.0)
+    assert "(integer_point: True)" in text
+    assert re.search(r"\nG00Z\d+\.\d*\n", text)
+    words = re.findall(r"[XYZIJ](-?\d*\.?\d*)", "\n".join(_lines(text)))
+    assert words and all("." in w or float(w) == 0 for w in words)

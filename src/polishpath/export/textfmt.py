@@ -36,8 +36,8 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["fixed_point_rows", "csv_rows", "fixed_point_exact", "HAVE_STRFROMD", "FIXED_MAX_CHARS",
-           "CSV_FLOAT_MAX_CHARS"]
+__all__ = ["fixed_point_rows", "csv_rows", "fixed_point_exact", "fixed_text", "HAVE_STRFROMD", "FIXED_MAX_CHARS",
+           "CSV_FLOAT_MAX_CHARS", "NO_LEADING_ZERO", "NO_TRAILING_ZEROS", "KEEP_POINT"]
 
 
 def _has_strfromd() -> bool:
@@ -65,8 +65,13 @@ def fixed_point_exact(values: np.ndarray, decimals: int) -> bool:
     return float(np.max(np.abs(v))) < 2.0**52 / 10.0 ** (decimals + 1)
 
 
+#: :func:`fixed_point_rows` styles per column (bits): no leading zero (``.5``), no trailing zeros (``1.2``), and with
+#: trailing zeros dropped a whole number keeps its point (``10.``: Fanuc reads ``X10`` as 10 increments)
+NO_LEADING_ZERO, NO_TRAILING_ZEROS, KEEP_POINT = 1, 2, 4
+
+
 @numba.njit(cache=True)
-def _put_fixed(out, pos, x, scale, decimals):  # pragma: no cover - numba
+def _put_fixed(out, pos, x, scale, decimals, style):  # pragma: no cover - numba
     k = np.rint(x * scale)  # np.round(x, d) is rint(x * 10^d) / 10^d: the same integer
     if k < 0:
         out[pos] = 45  # '-'
@@ -75,19 +80,28 @@ def _put_fixed(out, pos, x, scale, decimals):  # pragma: no cover - numba
     n = np.int64(k)
     ip = n // np.int64(scale)
     fp = n - ip * np.int64(scale)
-    pos = _put_int(out, pos, ip)  # integer part (ip >= 0: the sign is written above)
-    if decimals > 0:
+    nd = decimals
+    if style & NO_TRAILING_ZEROS:
+        while nd > 0 and fp % 10 == 0:
+            fp //= 10
+            nd -= 1
+        if n == 0:  # zero: "0"
+            out[pos] = 48
+            return pos + 1
+    if not (ip == 0 and nd > 0 and style & NO_LEADING_ZERO):
+        pos = _put_int(out, pos, ip)  # integer part (ip >= 0: the sign is written above)
+    if nd > 0 or (decimals > 0 and not style & NO_TRAILING_ZEROS) or (decimals > 0 and style & KEEP_POINT):
         out[pos] = 46  # '.'
         pos += 1
-        for q in range(decimals - 1, -1, -1):
-            out[pos + q] = 48 + fp % 10
-            fp //= 10
-        pos += decimals
+    for q in range(nd - 1, -1, -1):
+        out[pos + q] = 48 + fp % 10
+        fp //= 10
+    pos += nd
     return pos
 
 
 @numba.njit(cache=True)
-def fixed_point_rows(values, present, decimals, letters, sep, out):  # pragma: no cover - numba
+def fixed_point_rows(values, present, decimals, letters, sep, out, styles):  # pragma: no cover - numba
     """Rows of fixed-point numbers into ``out``; returns the bytes written.
 
     Parameters
@@ -100,8 +114,10 @@ def fixed_point_rows(values, present, decimals, letters, sep, out):  # pragma: n
     letters : (k,) uint8
         Address letter written before each number (0: none).
     sep : uint8
-        Byte between two numbers of a row (a space).
+        Byte between two numbers of a row (a space; 0: none, ``G3X1.2Y3.4``).
     out : (>= m * (k * FIXED_MAX_CHARS + 1),) uint8
+    styles : (k,) int64
+        Per column, bits of :data:`NO_LEADING_ZERO`, :data:`NO_TRAILING_ZEROS`, :data:`KEEP_POINT` (0: ``%.{d}f``).
     """
     m, k = values.shape
     scales = np.empty(k)
@@ -113,14 +129,14 @@ def fixed_point_rows(values, present, decimals, letters, sep, out):  # pragma: n
         for c in range(k):
             if not present[r, c]:
                 continue
-            if not first:
+            if not first and sep != 0:
                 out[pos] = sep
                 pos += 1
             first = False
             if letters[c] != 0:
                 out[pos] = letters[c]
                 pos += 1
-            pos = _put_fixed(out, pos, values[r, c], scales[c], decimals[c])
+            pos = _put_fixed(out, pos, values[r, c], scales[c], decimals[c], styles[c])
         if not first:
             out[pos] = 10
             pos += 1
@@ -340,13 +356,26 @@ def csv_rows(ints, floats, out, p_hi, p_lo):  # pragma: no cover - numba
 # --------------------------------------------------------------------------------------
 
 
-def _fixed_text(x: float, d: int) -> str:
+def fixed_text(x: float, d: int, style: int = 0) -> str:
+    """One number as :func:`fixed_point_rows` writes it (Python's ``%``; any size)."""
     s = f"{float(np.round(float(x), d)) + 0.0:.{d}f}"
-    return s[1:] if s.startswith("-") and float(s) == 0.0 else s
+    s = s[1:] if s.startswith("-") and float(s) == 0.0 else s
+    if style & NO_TRAILING_ZEROS and d > 0:
+        s = s.rstrip("0")
+        if s.endswith(".") and not style & KEEP_POINT:
+            s = s[:-1]
+        if s in ("", ".", "-", "-.", "0.", "-0", "-0."):
+            s = "0"
+    if style & NO_LEADING_ZERO and s != "0":
+        if s.startswith("0.") and len(s) > 2:
+            s = s[1:]
+        elif s.startswith("-0.") and len(s) > 3:
+            s = "-" + s[2:]
+    return s
 
 
 def format_fixed(values: np.ndarray, decimals, *, letters: str | None = None, present: np.ndarray | None = None,
-                 sep: str = " ") -> bytes:
+                 sep: str = " ", styles=0) -> bytes:
     """Rows of fixed-point numbers as bytes, one line per row (see :func:`fixed_point_rows`).
 
     Parameters
@@ -359,22 +388,28 @@ def format_fixed(values: np.ndarray, decimals, *, letters: str | None = None, pr
     present : (m, k) bool, optional
         Which numbers each row holds (default: all); a row with none is left out.
     sep : str
-        One character between the numbers of a row.
+        One character between the numbers of a row, or "" (none).
+    styles : int or (k,) int
+        Per column, bits of :data:`NO_LEADING_ZERO`, :data:`NO_TRAILING_ZEROS`, :data:`KEEP_POINT`.
     """
     v = np.ascontiguousarray(values, dtype=np.float64)
     m, k = v.shape
     dec = np.broadcast_to(np.asarray(decimals, dtype=np.int64), (k,)).copy()
     let = np.zeros(k, np.uint8) if letters is None else np.frombuffer(letters.replace(" ", "\0").encode(), np.uint8).copy()
     pres = np.ones((m, k), bool) if present is None else np.ascontiguousarray(present, dtype=bool)
+    sty = np.broadcast_to(np.asarray(styles, dtype=np.int64), (k,)).copy()
+    if len(sep) > 1:
+        raise ValueError(f"sep must be one character or empty, got {sep!r}")
     if m == 0:
         return b""
     if all(fixed_point_exact(v[:, c], int(dec[c])) for c in range(k)):
         out = np.empty(m * (k * FIXED_MAX_CHARS + 1), np.uint8)
-        n = fixed_point_rows(v, pres, dec, let, np.uint8(ord(sep)), out)
+        n = fixed_point_rows(v, pres, dec, let, np.uint8(ord(sep) if sep else 0), out, sty)
         return out[:n].tobytes()
     lines = []
     for r in range(m):  # huge or non-finite numbers: Python's formatting, row by row
-        words = [(chr(let[c]) if let[c] else "") + _fixed_text(v[r, c], int(dec[c])) for c in range(k) if pres[r, c]]
+        words = [(chr(let[c]) if let[c] else "") + fixed_text(v[r, c], int(dec[c]), int(sty[c])) for c in range(k)
+                 if pres[r, c]]
         if words:
             lines.append(sep.join(words) + "\n")
     return "".join(lines).encode("ascii")

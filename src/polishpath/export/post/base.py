@@ -42,8 +42,9 @@ from ...types import Surface, ToolPath
 from ..chunks import SampleChunk, checked_chunks, dwell_offsets, normals_at, sample_chunks
 from ..files import _bytes_out, _fmt
 from ..segment import PieceSegmenter
+from ..textfmt import KEEP_POINT, NO_LEADING_ZERO, NO_TRAILING_ZEROS, fixed_text
 from .gouge import gouge_check
-from .blocks import BlockMotion
+from .blocks import BlockMotion, round_feeds
 
 __all__ = ["PostSettings", "PostProcessor", "GcodePost", "offset_along_normals", "planned_segment_times"]
 
@@ -83,9 +84,24 @@ class PostSettings:
     feed_mode : {"auto", "inverse-time", "per-minute"}
         ``auto``: inverse time (G93) where the controller has it and a tool-radius
         offset is set, else feed per minute (G94) with F rescaled to the driven point.
-    decimals, feed_decimals : int
-        Digits after the decimal point of coordinates (mm) and of F (4: a
-        coordinate resolution of 0.1 um; 3: 0.001 mm/min, or 0.001 / min in G93).
+    decimals : int
+        Digits after the decimal point of coordinates (mm; 4: a coordinate resolution of 0.1 um).
+    feed_decimals : int or None
+        Digits after the decimal point of F; None (default): the digits ``feed_resolution``
+        needs, F rounded to the largest power of ten within twice ``feed_resolution`` of it
+        (F300.4, F577; :func:`~polishpath.export.post.blocks.round_feeds`), trailing zeros dropped.
+        The blocks' times are computed from the F as written.
+    word_separator : str
+        Between the words of a motion block: "" (default, ``G3X1.2Y-3.4I.5J.1F300.4``:
+        LinuxCNC and Fanuc read it) or " ".
+    leading_zero : bool
+        Write the zero before the point of a number below 1 (``X0.5``; default false: ``X.5``).
+    trailing_zeros : bool
+        Write every decimal of a coordinate (``X1.2000``; default false: ``X1.2``).
+    integer_point : bool
+        With trailing zeros dropped, a whole-number coordinate keeps its point (``X10.``): a Fanuc
+        control without calculator-type decimal input reads ``X10`` as 10 increments (0.01 mm).
+        Default false (LinuxCNC; a zero is written ``0``); the fanuc post's default true.
     segmenting : {"chord", "period"}
         ``chord`` (default): blocks merge consecutive machine samples while the
         chord and time tolerances hold, every dwell point a block end
@@ -124,7 +140,11 @@ class PostSettings:
     approach_feed_mm_min: float = 300.0
     feed_mode: str = "auto"
     decimals: int = 4
-    feed_decimals: int = 3
+    feed_decimals: int | None = None
+    word_separator: str = ""
+    leading_zero: bool = False
+    trailing_zeros: bool = False
+    integer_point: bool = False
     segmenting: str = "chord"
     arcs: bool = True
     chord_tol_mm: float | None = None
@@ -153,7 +173,7 @@ class PostSettings:
         return out
 
     def check(self, where: str = "post options") -> None:
-        for name in ("preamble", "safety_block", "blending", "coolant_on", "postamble", "feed_mode"):
+        for name in ("preamble", "safety_block", "blending", "coolant_on", "postamble", "feed_mode", "word_separator"):
             if not isinstance(getattr(self, name), str):
                 raise ParameterError(f"{where}: {name} must be text, got {getattr(self, name)!r}.")
         for name in ("spindle_rpm", "clearance_mm", "approach_mm", "approach_feed_mm_min"):
@@ -164,8 +184,18 @@ class PostSettings:
             raise ParameterError(f"{where}: approach_feed_mm_min must be > 0 mm/min, got {self.approach_feed_mm_min!r}.")
         for name in ("decimals", "feed_decimals"):
             v = getattr(self, name)
+            if v is None and name == "feed_decimals":
+                continue
             if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 9:
-                raise ParameterError(f"{where}: {name} must be a whole number 0..9, got {v!r}.")
+                raise ParameterError(f"{where}: {name} must be a whole number 0..9"
+                                     + (" (or left out: the digits feed_resolution needs)" if name == "feed_decimals"
+                                        else "") + f", got {v!r}.")
+        if self.word_separator not in ("", " "):
+            raise ParameterError(f"{where}: word_separator must be \"\" (none) or \" \" (a space), "
+                                 f"got {self.word_separator!r}.")
+        for name in ("leading_zero", "trailing_zeros", "integer_point"):
+            if not isinstance(getattr(self, name), bool):
+                raise ParameterError(f"{where}: {name} must be true or false, got {getattr(self, name)!r}.")
         if self.segmenting not in SEGMENTINGS:
             raise ParameterError(f"{where}: segmenting must be one of {', '.join(SEGMENTINGS)}, got {self.segmenting!r}.")
         c = self.chord_tol_mm
@@ -312,11 +342,26 @@ class GcodePost(PostProcessor):
         return fm
 
     # ---------------------------------------------------------------- numbers
+    def styles(self) -> int:
+        """The coordinates' number style (:mod:`~polishpath.export.textfmt` bits) from the settings."""
+        s = self.settings
+        return ((0 if s.leading_zero else NO_LEADING_ZERO) | (0 if s.trailing_zeros else NO_TRAILING_ZEROS)
+                | (KEEP_POINT if s.integer_point else 0))
+
     def f(self, v: float) -> str:
-        return _fmt(v, self.settings.decimals)
+        """A coordinate as the motion blocks write it."""
+        return fixed_text(v, self.settings.decimals, self.styles())
 
     def ff(self, v: float) -> str:
-        return _fmt(v, self.settings.feed_decimals)
+        """An F as the motion blocks write it (rounded as :func:`~polishpath.export.post.blocks.round_feeds`)."""
+        s = self.settings
+        v = float(round_feeds(np.array([float(v)]), s.feed_decimals, s.feed_resolution)[0])
+        style = (self.styles() & ~KEEP_POINT) | (NO_TRAILING_ZEROS if s.feed_decimals is None else 0)
+        return fixed_text(v, 9 if s.feed_decimals is None else s.feed_decimals, style)
+
+    def words(self, *words: str) -> str:
+        """Words of one block joined by ``word_separator``."""
+        return self.settings.word_separator.join(w for w in words if w)
 
     def chord_tol(self, tool_path: ToolPath) -> float:
         """The smoothing stage's chord tolerance, mm (the blending's)."""
@@ -360,11 +405,22 @@ class GcodePost(PostProcessor):
                                   np.ascontiguousarray(tool_path.dwell_params, dtype=np.float64),
                                   np.ascontiguousarray(sp.normals, dtype=np.float64))
         seg = PieceSegmenter(tool_path.dwell_params[a:b], dpts, ctx["curve_polys"] + (float(tool_radius),),
-                             ctx["segment_tol_mm"], s.time_tol - (0.0 if inverse else s.feed_resolution),
+                             ctx["segment_tol_mm"], s.time_tol - self.feed_share(inverse),
                              merge=s.segmenting == "chord", arcs=self.uses_arcs(), resolution_mm=10.0 ** -s.decimals,
                              smooth_tol_mm=tool_path.provenance.params.get("chord_tol_mm"))
         return BlockMotion(seg, write, decimals=s.decimals, feed_decimals=s.feed_decimals, inverse_time=inverse,
-                           feed_resolution=s.feed_resolution, feed_in_force=s.approach_feed_mm_min)
+                           feed_resolution=s.feed_resolution, feed_in_force=self.approach_feed_written(),
+                           sep=s.word_separator, styles=self.styles())
+
+    def feed_share(self, inverse: bool) -> float:
+        """The share of ``time_tol`` kept for F's resolution: ``feed_resolution`` where a block's F may be off
+        its own feed by that much (G94's modal F, or F rounded to that resolution), else 0."""
+        s = self.settings
+        return s.feed_resolution if (not inverse or s.feed_decimals is None) else 0.0
+
+    def approach_feed_written(self) -> float:
+        """The approach feed as written, mm/min (the F in force when a piece's motion starts)."""
+        return float(self.ff(self.settings.approach_feed_mm_min))
 
     def uses_arcs(self) -> bool:
         """Whether the linear mode writes helical arcs beside lines (``arcs`` with ``chord`` segmenting)."""
@@ -422,7 +478,10 @@ class GcodePost(PostProcessor):
             hdr += _flatten_header(sp.provenance.to_dict(), "map.")
         hdr += [("mode", mode), ("feed_mode", feed_mode), ("dwell_points", len(sp.xyz)), ("pieces", n_pieces),
                 ("period_ms", tool_path.period_ms), ("tool_radius_mm", float(tool_radius)), ("safe_z_mm", safe),
-                ("coordinate_resolution_mm", 10.0 ** -s.decimals)]
+                ("coordinate_resolution_mm", 10.0 ** -s.decimals),
+                ("feed_decimals", "by feed_resolution" if s.feed_decimals is None else s.feed_decimals),
+                ("word_separator", repr(s.word_separator)), ("leading_zero", s.leading_zero),
+                ("trailing_zeros", s.trailing_zeros), ("integer_point", s.integer_point)]
         if mode == "linear":
             hdr += [("segmenting", s.segmenting)]
             if s.segmenting == "chord":
@@ -476,7 +535,7 @@ class GcodePost(PostProcessor):
         zmax = max(self.reach_z(tool_path, tool_radius, ctx), float(np.max(reach[:, 2])) if len(reach) else 0.0, 0.0)
         safe = zmax + s.clearance_mm
         tol = self.chord_tol(tool_path)
-        f, ff = self.f, self.ff
+        f, ff, w = self.f, self.ff, self.words
         inverse = feed_mode == "inverse-time"
         chunks = sample_chunks(tool_path) if chunks is None else chunks
         at = self.driven(tool_path, tool_radius)
@@ -512,8 +571,9 @@ class GcodePost(PostProcessor):
                 n1 = normals_at(tool_path, np.array([u1]))[0]
                 secs, blocks = m.finish()
                 q1 = p1 + a * n1
-                text(("G94\n" if inverse else "") + f"G01 X{f(q1[0])} Y{f(q1[1])} Z{f(q1[2])} "
-                     f"F{ff(s.approach_feed_mm_min)}\nG00 Z{f(safe)}\n")
+                text(("G94\n" if inverse else "") + w("G01", f"X{f(q1[0])}", f"Y{f(q1[1])}", f"Z{f(q1[2])}",
+                                                      f"F{ff(s.approach_feed_mm_min)}") + "\n"
+                     + w("G00", f"Z{f(safe)}") + "\n")
                 counts["path_s"] += secs
                 counts["blocks"] += blocks
                 counts["arcs"] += getattr(m, "arcs", 0)
@@ -528,8 +588,10 @@ class GcodePost(PostProcessor):
                         end_piece()
                     p0, n0 = pts[0], normals_at(tool_path, chunk.sample_params[:1])[0]
                     q0 = p0 + a * n0
-                    text(f"G00 Z{f(safe)}\nG00 X{f(q0[0])} Y{f(q0[1])}\nG00 Z{f(q0[2])}\n"
-                         f"G01 X{f(p0[0])} Y{f(p0[1])} Z{f(p0[2])} F{ff(s.approach_feed_mm_min)}\n"
+                    text(w("G00", f"Z{f(safe)}") + "\n" + w("G00", f"X{f(q0[0])}", f"Y{f(q0[1])}") + "\n"
+                         + w("G00", f"Z{f(q0[2])}") + "\n"
+                         + w("G01", f"X{f(p0[0])}", f"Y{f(p0[1])}", f"Z{f(p0[2])}", f"F{ff(s.approach_feed_mm_min)}")
+                         + "\n"
                          + ("G93\n" if inverse else ""))
                     state["motion"] = self.motion(tool_path, chunk.piece, write, feed_mode, mode, tool_radius, ctx)
                     state["motion"].start(p0)
@@ -546,7 +608,7 @@ class GcodePost(PostProcessor):
                               f"{counts['bytes'] / n_dwell:.1f}") + "\n")
             text(s.postamble.rstrip("\n") + "\n%\n")
         gouge = gouge_check(tool_path, tool_radius, surface) if tool_radius > 0 else None
-        appr_s = counts["pieces"] * 2 * a * 60.0 / s.approach_feed_mm_min
+        appr_s = counts["pieces"] * 2 * a * 60.0 / self.approach_feed_written()
         return {"post": self.name, "file": self.filename, "mode": mode, "feed_mode": feed_mode,
                 "gouge": gouge, "warnings": list(gouge["warnings"]) if gouge else [],
                 "coordinates": "tool centre" if tool_radius > 0 else "contact point", "tool_radius_mm": tool_radius,

@@ -27,19 +27,37 @@ import numpy as np
 
 from ..blockfit import LINE, written_arc_lengths
 from ..segment import PieceSegmenter
-from ..textfmt import format_fixed
+from ..textfmt import KEEP_POINT, NO_TRAILING_ZEROS, format_fixed
 
-__all__ = ["BlockMotion", "modal_feed_words"]
+__all__ = ["BlockMotion", "modal_feed_words", "round_feeds"]
+
+
+def round_feeds(feed: np.ndarray, decimals: int | None, resolution: float) -> np.ndarray:
+    """F as written: to ``decimals`` digits, or (None) to the digits ``resolution`` needs.
+
+    None: each F is rounded to the largest power of ten ``q`` with ``q / 2 <= resolution x F``
+    (``q = 10^floor(log10(2 resolution F))``: at 0.1 %, F300.4, F577, F5430), so the F the controller reads
+    is within ``resolution`` of the block's own feed. ``feed`` (k,) > 0, mm/min (or 1/min in G93).
+    """
+    f = np.asarray(feed, dtype=np.float64)
+    if decimals is not None:
+        return np.round(f, decimals) + 0.0
+    e = np.floor(np.log10(np.maximum(2.0 * resolution * f, 1e-300)))
+    up = 10.0 ** np.maximum(-e, 0.0)  # as np.round: rint(f * 10^d) / 10^d (the double nearest the decimal)
+    down = 10.0 ** np.maximum(e, 0.0)
+    return np.rint(f * up / down) * down / up + 0.0
 
 
 @numba.njit(cache=True)
-def modal_feed_words(feed, in_force, resolution):  # pragma: no cover - numba
+def modal_feed_words(feed, written, in_force, resolution):  # pragma: no cover - numba
     """Which blocks write their F, and the F each block runs at.
 
     Parameters
     ----------
     feed : (k,) float64
-        Each block's own feed, mm/min (as written, rounded).
+        Each block's own feed, mm/min (its written length over its planned time).
+    written : (k,) float64
+        The same as F would write it (rounded, :func:`round_feeds`).
     in_force : float
         The F in force before the first block (0: none).
     resolution : float
@@ -57,7 +75,7 @@ def modal_feed_words(feed, in_force, resolution):  # pragma: no cover - numba
     f = in_force
     for i in range(k):
         if f <= 0.0 or abs(feed[i] - f) > resolution * f:
-            f = feed[i]
+            f = written[i]
             write[i] = True
         runs[i] = f
     return write, runs
@@ -71,19 +89,27 @@ class BlockMotion:
     segmenter : PieceSegmenter
     write : callable
         ``write(bytes)`` into the program.
-    decimals, feed_decimals : int
+    decimals : int
+    feed_decimals : int or None
+        Digits of F; None: the digits ``feed_resolution`` needs (:func:`round_feeds`).
     inverse_time : bool
         G93 (F = 1/minutes on every block) or G94 (F in mm/min, modal).
     feed_resolution : float
         G94: fraction by which F may differ from the F in force before it is written again.
     feed_in_force : float
         F in force before the first block (the approach feed), mm/min.
+    sep : str
+        Between the words of a block ("" or " ").
+    styles : int
+        :mod:`~polishpath.export.textfmt` number style bits of the axis words (X Y Z I J); F drops its
+        trailing zeros when ``feed_decimals`` is None.
     """
 
     def __init__(self, segmenter: PieceSegmenter, write, *, decimals: int, feed_decimals: int, inverse_time: bool,
-                 feed_resolution: float, feed_in_force: float):
+                 feed_resolution: float, feed_in_force: float, sep: str = " ", styles: int = 0):
         self.seg, self.write = segmenter, write
-        self.d, self.fd = int(decimals), int(feed_decimals)
+        self.d, self.fd = int(decimals), (None if feed_decimals is None else int(feed_decimals))
+        self.sep, self.styles = sep, int(styles)
         self.inverse_time, self.res = bool(inverse_time), float(feed_resolution)
         self.f_force = float(feed_in_force)
         self.mode = LINE  # the approach's G01 is in force
@@ -138,20 +164,24 @@ class BlockMotion:
         length = written_arc_lengths(np.ascontiguousarray(prev), np.ascontiguousarray(W), kinds.astype(np.int64),
                                      np.ascontiguousarray(ij, dtype=np.float64))
         if self.inverse_time:
-            feed = np.round(60.0 / np.maximum(dt, 1e-12), self.fd) + 0.0  # 1/min: the block takes 1/F minutes
+            # 1/min: the block takes 1/F minutes (F as written)
+            feed = round_feeds(60.0 / np.maximum(dt, 1e-12), self.fd, self.res)
             words = np.ones(len(W), bool)
             self.seconds += float(np.sum(60.0 / feed))
         else:
-            feed = np.round(length * 60.0 / np.maximum(dt, 1e-12), self.fd) + 0.0
-            words, runs = modal_feed_words(feed, self.f_force, self.res)
+            exact = length * 60.0 / np.maximum(dt, 1e-12)
+            words, runs = modal_feed_words(exact, round_feeds(exact, self.fd, self.res), self.f_force, self.res)
+            feed = runs
             self.f_force = float(runs[-1])
             self.seconds += float(np.sum(length * 60.0 / runs))
         arc = kinds != LINE
         gword = kinds != np.concatenate([[self.mode], kinds[:-1]])
         present = np.column_stack([gword, W != prev, arc, arc, words])  # an arc always moves in XY
         values = np.column_stack([kinds.astype(np.float64), W, ij, feed])
-        self.write(format_fixed(values, [0, self.d, self.d, self.d, self.d, self.d, self.fd], letters="GXYZIJF",
-                                present=present))
+        fd = self.fd if self.fd is not None else 9  # F rounded to its resolution's digits, trailing zeros dropped
+        fstyle = (self.styles & ~KEEP_POINT) | (NO_TRAILING_ZEROS if self.fd is None else 0)  # F577: mm/min anyway
+        self.write(format_fixed(values, [0, self.d, self.d, self.d, self.d, self.d, fd], letters="GXYZIJF",
+                                present=present, sep=self.sep, styles=[0] + [self.styles] * 5 + [fstyle]))
         self.mode = int(kinds[-1])
         self.w_prev, self.t_written = W[-1], float(T[-1])
         self.blocks += len(W)

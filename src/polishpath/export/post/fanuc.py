@@ -61,9 +61,11 @@ class NurbsMotion:
         f, fk = post.f, (lambda v: _fmt(v, post.knot_decimals))
         cp, w = c.control_points, c.weights
         rank = c.degree + 1
-        lines = [f"G06.2 P{rank} K{fk(ks[0])} X{f(cp[0, 0])} Y{f(cp[0, 1])} Z{f(cp[0, 2])} R{_fmt(w[0], 4)} "
-                 f"F{post.ff(feed)}"]
-        lines += [f"K{fk(ks[i])} X{f(cp[i, 0])} Y{f(cp[i, 1])} Z{f(cp[i, 2])} R{_fmt(w[i], 4)}" for i in range(1, len(cp))]
+        j = post.words
+        lines = [j("G06.2", f"P{rank}", f"K{fk(ks[0])}", f"X{f(cp[0, 0])}", f"Y{f(cp[0, 1])}", f"Z{f(cp[0, 2])}",
+                   f"R{_fmt(w[0], 4)}", f"F{post.ff(feed)}")]
+        lines += [j(f"K{fk(ks[i])}", f"X{f(cp[i, 0])}", f"Y{f(cp[i, 1])}", f"Z{f(cp[i, 2])}", f"R{_fmt(w[i], 4)}")
+                  for i in range(1, len(cp))]
         lines += [f"K{fk(v)}" for v in ks[len(cp):]]
         self.write(("\n".join(lines) + "\n").encode("ascii"))
         return self.secs, len(lines)
@@ -77,7 +79,8 @@ class FanucPost(GcodePost):
     inverse_time: ClassVar[bool] = False
     label: ClassVar[str] = ("for FANUC 15i/30i-CLASS CONTROLS WITH THE NURBS INTERPOLATION OPTION [G06.2]; "
                             "not for LinuxCNC")
-    defaults: ClassVar[dict[str, Any]] = {"program_number": 1}
+    # whole-number coordinates keep their point: X10 is 10 increments on a Fanuc without calculator-type input
+    defaults: ClassVar[dict[str, Any]] = {"program_number": 1, "integer_point": True}
     knot_decimals: ClassVar[int] = 6
 
     def prepare(self, tool_path: ToolPath, mode: str, tool_radius: float) -> dict:
