@@ -75,3 +75,20 @@ def test_direct_solve_matches_pcg_on_a_mesh_with_holes():
     assert st_d["converged"] and st_p["converged"]
     assert np.abs(ang_d - ang_p).max() < 1e-7
     assert np.allclose(ang_d[: len(s.faces)], fd.angles, atol=1e-12)
+
+
+def test_refactor_without_the_pivot_check_still_solves_exactly():
+    """linear="direct" only solves with its factor: LDL' solves a nonsingular symmetric
+    matrix whatever the signs of its pivots, so the check (which copies L) is skipped."""
+    pytest.importorskip("qdldl")
+    A = _spd(200, 3)
+    Ind = (A - sp.diags(np.full(200, 0.5 * A.diagonal().max()))).tocsc()  # symmetric, indefinite
+    fz = linalg.SpdFactorizer(Ind, "qdldl")
+    b = np.linspace(-1.0, 1.0, 200)
+    x = fz.refactor(Ind, slot="S", check_pivots=False)(b)
+    from scipy.sparse.linalg import spsolve
+
+    ref = spsolve(Ind, b)
+    assert np.abs(x - ref).max() < 1e-9 * np.abs(ref).max()
+    with pytest.raises(linalg.FlatteningError, match="not positive definite"):
+        fz.refactor(Ind, slot="other")

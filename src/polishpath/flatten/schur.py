@@ -459,4 +459,5 @@ class _Coupled(_Schur):
         self.nnz = int(S.nnz)
         if self.factorizer is None:
             self.factorizer = SpdFactorizer(S, self.pattern._solver)
-        self.solve = self.factorizer.refactor(S, slot="S")
+        # S is only solved with (no CG on it): its pivots need no check, see refactor
+        self.solve = self.factorizer.refactor(S, slot="S", check_pivots=False)
