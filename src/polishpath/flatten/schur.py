@@ -104,39 +104,9 @@ def _kernel_jt_proj(y1, y2, rows, cot, dinv, dsum, out):  # pragma: no cover - n
 
 
 @numba.njit(cache=True)
-def _kernel_blocks(rows, cot, dinv, dsum, with_wheel, out):  # pragma: no cover - numba
-    # per-face 3x3 blocks of B P B^T (with_wheel False) or Jw P Jw^T, row-major (F, 9)
-    P = np.empty((3, 3))
-    J = np.zeros((3, 3))
-    JP = np.empty((3, 3))
-    for f in range(rows.shape[0]):
-        for a in range(3):
-            for b in range(3):
-                P[a, b] = -dinv[3 * f + a] * dinv[3 * f + b] / dsum[f]
-            P[a, a] += dinv[3 * f + a]
-        if not with_wheel:
-            for a in range(3):
-                for b in range(3):
-                    out[f, 3 * a + b] = P[a, b]
-            continue
-        for a in range(3):
-            a1 = (a + 1) % 3
-            a2 = (a + 2) % 3
-            J[a, a] = 0.0
-            J[a, a1] = cot[3 * f + a1]
-            J[a, a2] = -cot[3 * f + a2]
-        for a in range(3):
-            for b in range(3):
-                JP[a, b] = J[a, 0] * P[0, b] + J[a, 1] * P[1, b] + J[a, 2] * P[2, b]
-        for a in range(3):
-            for b in range(3):
-                out[f, 3 * a + b] = JP[a, 0] * J[b, 0] + JP[a, 1] * J[b, 1] + JP[a, 2] * J[b, 2]
-
-
-@numba.njit(cache=True)
 def _kernel_blocks3(rows, cot, dinv, dsum, outk, outc, outm):  # pragma: no cover - numba
     # per-face 3x3 blocks of K = B P B^T, C = B P Jw^T and M = Jw P Jw^T, row-major (F, 9):
-    # the blocks of the coupled S that linear="direct" factorises (one pass for all three)
+    # the blocks of S (linear="direct" assembles all three in one pass; pcg uses K and M)
     P = np.empty((3, 3))
     J = np.zeros((3, 3))
     JP = np.empty((3, 3))
@@ -320,9 +290,10 @@ class _Schur:
         return sp.csc_matrix((data, self._indices, self._indptr), shape=(self.Vi, self.Vi))
 
     def _block(self, cot: np.ndarray | None) -> sp.csc_matrix:
-        out = np.empty((self.F, 9))
-        _kernel_blocks(self.rows, self.cot if cot is None else cot, self.dinv, self.dsum, cot is not None, out)
-        return self._csc(out.ravel())
+        # K (cot None: it does not depend on the Jacobian) or M at ``cot``
+        outk, outc, outm = (np.empty((self.F, 9)) for _ in range(3))
+        _kernel_blocks3(self.rows, self.cot if cot is None else cot, self.dinv, self.dsum, outk, outc, outm)
+        return self._csc((outk if cot is None else outm).ravel())
 
     def set_jacobian(self, cot: np.ndarray, refactor_m: bool) -> None:
         self.cot = np.ascontiguousarray(cot)
