@@ -194,10 +194,13 @@ def show(r: dict) -> list[str]:
     sm = tim.get("smooth", float("nan"))
     ip = float(s["smooth"]["stats"].get("interpolation_s", float("nan")))
     passes = s["smooth"]["stats"].get("schedule_passes", 1)
+    rerun = s["smooth"]["stats"].get("schedule_rerun_samples")
+    # samples the kernels made: the Taylor kernel runs the path once plus the regions it runs again
+    made = samples + rerun if (rerun or passes == 1) and rerun is not None else samples * passes
     print(f"  machine samples {s['smooth'].get('samples_mode', 'memory')}: {s['smooth'].get('samples_mode_reason')}")
     print(f"  machine samples: {samples:,} ({samples / n:.1f} per dwell point), {samples / sm / 1e6:.2f} M/s "
           f"over the smoothing stage, {samples / ip / 1e6:.2f} M/s over the interpolation kernels "
-          f"({passes} schedule passes: {samples * passes / ip / 1e6:.2f} M samples/s per pass)")
+          f"({made / samples:.2f} samples made per sample kept: {made / ip / 1e6:.2f} M samples made per s)")
     print(f"  {'file':<14s} {'MB':>9s} {'s':>7s} {'MB/s':>7s} {'lines':>11s} {'lines/pt':>9s} {'B/pt':>8s}")
     sizes = {}
     pngs = [0, 0.0, 0]
@@ -256,8 +259,8 @@ def show(r: dict) -> list[str]:
     target(rate >= TARGET_SAMPLES_PER_S,
            f"smoothing stage {rate / 1e6:.2f} M samples/s (target >= {TARGET_SAMPLES_PER_S / 1e6:.0f} M/s, "
            f"{TARGET_SAMPLES_PER_S / max(rate, 1e-9):.1f}x short)",
-           f"the stage ran {passes} interpolation pass(es) over every sample at {samples * passes / ip / 1e6:.2f} M "
-           f"samples/s per pass ({ip:.1f} s in the kernels), and spent {outside:.1f} s outside the kernels "
+           f"the kernels made {made / samples:.2f} samples per sample kept (regions run again to meet their "
+           f"times) at {made / ip / 1e6:.2f} M samples/s ({ip:.1f} s), and the stage spent {outside:.1f} s outside them "
            "(the curve, its checks, the figures)")
     # the writers: files written in the same pass over the samples (their clocks overlap) count as one
     spans = sorted((w["start"], w["end"], Path(w["file"]).name) for w in r["writers"]
@@ -275,8 +278,8 @@ def show(r: dict) -> list[str]:
         what = " + ".join(names) + (" (one pass over the samples)" if len(names) > 1 else "")
         regen = ""
         if len(names) > 1 and s["smooth"].get("samples_mode") == "stream" and math.isfinite(ip):
-            regen = (f"; the samples streamed, so the pass also regenerated them, about {ip / passes:.0f} s at the "
-                     "kernels' per-pass rate")
+            regen = (f"; the samples streamed, so the pass also regenerated them, about {ip * samples / made:.0f} s "
+                     "at the kernels' rate")
         target(wr >= TARGET_WRITER_MB_S, f"writer {what} {wr:.0f} MB/s (target >= {TARGET_WRITER_MB_S:.0f} MB/s)",
                f"{mb:.0f} MB in {b - a:.1f} s{regen}")
     big = sorted(((v, k) for k, v in tim.items()), reverse=True)[:3]

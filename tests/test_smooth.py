@@ -198,9 +198,11 @@ def _rms(rel):
     return float(np.sqrt(np.mean(np.asarray(rel) ** 2)))
 
 
-def test_the_schedule_model_and_a_corrective_pass_make_up_for_curvature_slowdowns():
+@pytest.mark.parametrize("integrator", ["taylor", "ab-am"])
+def test_the_schedule_model_and_a_corrective_pass_make_up_for_curvature_slowdowns(integrator):
     """Feeds solved from each region's time under the curvature limit meet the times far better than
-    length / time; a corrective pass (only where a region is still off) brings them nearer still."""
+    length / time; correcting the regions still off (a corrective pass; the Taylor kernel runs such a
+    region again at once) brings them nearer still."""
     import polishpath.smooth.interpolate as interp
     from polishpath.smooth.samples import KernelRun
 
@@ -208,9 +210,9 @@ def test_the_schedule_model_and_a_corrective_pass_make_up_for_curvature_slowdown
     curve, u = interpolate_nurbs(pts)
     times = np.full(len(pts), 0.03)  # ~1000 mm/min wanted: the tight turns must be run slower
     one = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
-                                      max_feed_mm_min=6000.0, schedule_passes=1)
+                                      max_feed_mm_min=6000.0, schedule_passes=1, integrator=integrator)
     more = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
-                                       max_feed_mm_min=6000.0, schedule_passes=4)
+                                       max_feed_mm_min=6000.0, schedule_passes=4, integrator=integrator)
     # the nominal schedule: each region's length over its time, as if the curvature limit did not slow it
     u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
     rb = interp.dwell_regions(u, u0, u1)
@@ -364,14 +366,15 @@ def test_samples_near_the_boundary_are_all_found():
 
 
 def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypatch):
-    """Only one pass's samples are held: when the last pass is worse, the best one's feeds are run again, same bytes."""
+    """Only one pass's samples are held: when the last pass is worse, the best one's feeds are run again, same bytes
+    (the whole schedule passes of an integrator without a scheduling kernel)."""
     import polishpath.smooth.interpolate as interp
     from polishpath.smooth.spans import new_state
 
     pts = _walk(80, seed=12)
     curve, u = interpolate_nurbs(pts)
     times = np.full(len(pts), 0.03)
-    real = interp.INTEGRATORS["taylor"]
+    real = interp.INTEGRATORS["ab-am"]
     calls = []
 
     def spoiled(breaks, coeffs, bends, size, u0, u1, rb, rfeed, vmax, T, tol, state, limit, region_times):
@@ -380,13 +383,13 @@ def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypat
             rfeed = rfeed * 3.0
         return real(breaks, coeffs, bends, size, u0, u1, rb, rfeed, vmax, T, tol, state, limit, region_times)
 
-    monkeypatch.setitem(interp.INTEGRATORS, "taylor", spoiled)
+    monkeypatch.setitem(interp.INTEGRATORS, "ab-am", spoiled)
     res = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
-                                      max_feed_mm_min=6000.0, schedule_passes=2)
+                                      max_feed_mm_min=6000.0, schedule_passes=2, integrator="ab-am")
     assert len(calls) == 3 and res["stats"]["schedule_passes"] == 2
     assert not np.array_equal(calls[1], calls[0]) and np.array_equal(calls[2], calls[0])  # pass 1 run again
     assert np.array_equal(res["region_feed"], calls[0])
-    monkeypatch.setitem(interp.INTEGRATORS, "taylor", real)
+    monkeypatch.setitem(interp.INTEGRATORS, "ab-am", real)
     kc = interp.kernel_curve(curve)
     u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
     rb = interp.dwell_regions(u, u0, u1)
@@ -394,7 +397,7 @@ def test_the_best_schedule_pass_is_run_again_when_a_later_one_is_worse(monkeypat
                 10**6, np.zeros(len(rb)))
     assert np.array_equal(res["params"], want[0]) and np.array_equal(res["samples"], want[1])
     one = interpolate_constant_period(curve, 600.0, 2.0, 1e-3, dwell_params=u, dwell_times=times,
-                                      max_feed_mm_min=6000.0, schedule_passes=1)
+                                      max_feed_mm_min=6000.0, schedule_passes=1, integrator="ab-am")
     assert np.array_equal(one["params"], res["params"]) and one["stats"]["dwell_time_error_max"] == \
         res["stats"]["dwell_time_error_max"]
 
@@ -436,3 +439,24 @@ def test_compiled_edge_distance_matches_the_vectorised_one():
     near[:, 0] = 7
     want = _segment_distance(p[:, None, :], a[near], b[near]).min(axis=1)
     assert np.allclose(_edge_distance(p, a, b, near), want, rtol=1e-14, atol=1e-15)
+
+
+def test_the_tool_path_takes_the_stage_s_frozen_arrays_without_a_copy():
+    """smooth() hands its sample arrays over read-only, so ToolPath keeps them (no copy of 15 M samples at
+    10^6 dwell points); an array a writeable one shares memory with is still copied."""
+    import dataclasses
+
+    sp = polyline_surface_path(_walk(30, seed=4))
+    tp = smooth(sp)
+    assert not tp.samples.flags.writeable and not tp.sample_params.flags.writeable
+    kept = dataclasses.replace(tp, feed_mm_min=tp.feed_mm_min)
+    assert kept.samples is tp.samples and kept.feed_mm_min is tp.feed_mm_min  # frozen: taken as they are
+    mine = np.array(tp.samples)  # writeable: copied
+    view = mine[:]
+    view.setflags(write=False)  # read-only, but its base can still change: copied
+    for arr in (mine, view):
+        other = dataclasses.replace(tp, samples=arr)
+        assert not np.shares_memory(other.samples, mine) and np.array_equal(other.samples, mine)
+        assert not other.samples.flags.writeable
+    mine[0, 0] += 1.0
+    assert other.samples[0, 0] == tp.samples[0, 0]

@@ -77,6 +77,62 @@ def test_resumed_kernel_calls_give_the_samples_of_one_call(integrator, size):
         assert state[ST_FALLBACKS] < len(whole[0]) - 1  # the multistep history is used (and carried), not restarted
 
 
+@pytest.mark.parametrize("size", [1, 7, 101, None])
+def test_the_scheduling_kernel_in_chunks_gives_one_call_and_the_plain_kernel_at_its_feeds(size):
+    """taylor_schedule_kernel finds each region's feed as it runs and runs regions again: in chunks of 1, 7,
+    101 or in one go it gives the same samples, feeds found and figures, and they are, bit for bit, those of
+    the plain kernel run at the feeds it found (what regenerates them) - also with a region too long to be
+    run again (more than RERUN_MAX_SAMPLES samples, a call then stops inside it)."""
+    from polishpath.smooth.taylor import RERUN_MAX_SAMPLES
+    from polishpath.smooth.timing import KERNEL_ORDER
+
+    rng = np.random.default_rng(8)
+    pts = np.cumsum(rng.normal(scale=0.4, size=(60, 3)), axis=0)
+    curve, u = interp_nurbs(pts)
+    kc = interp.kernel_curve(curve)
+    u0, u1 = float(curve.knots[0]), float(curve.knots[-1])
+    rb = interp.dwell_regions(u, u0, u1)
+    want = rng.uniform(0.02, 0.06, size=len(u))
+    want[20] = 1.5 * RERUN_MAX_SAMPLES * 0.002  # a region of about 6,000 samples
+    gx, gw = np.polynomial.legendre.leggauss(KERNEL_ORDER)
+    sched = (interp.SCHEDULING_KERNELS["taylor"], want, u, gx, gw, 2, 0.01)
+
+    def scheduled(chunk):
+        kr = KernelRun(interp.INTEGRATORS["taylor"], kc, u0, u1, rb, np.ones(len(u)), 50.0, 0.002, 1e-3,
+                       size=chunk, cap=1024, schedule=sched)
+        parts = list(kr)
+        return kr, [np.concatenate([p[j] for p in parts]) for j in range(3)], parts
+
+    one, whole, _ = scheduled(None)
+    regions, rerun, most = one.reruns()
+    assert regions > 0 and rerun > 0 and most == 2  # some regions were run again
+    spent = np.diff(one.boundary_times())
+    assert spent[20] > RERUN_MAX_SAMPLES * 0.002
+    if size is not None:
+        kr, got, parts = scheduled(size)
+        assert max(len(p[0]) for p in parts) <= size + RERUN_MAX_SAMPLES + 1 and len(parts) > 3
+        for j in range(3):
+            assert np.array_equal(got[j], whole[j])
+        assert np.array_equal(kr.region_feed, one.region_feed) and np.array_equal(kr.state, one.state)
+        assert np.array_equal(kr.times, one.times)
+        return
+    plain = KernelRun(interp.INTEGRATORS["taylor"], kc, u0, u1, rb, one.region_feed, 50.0, 0.002, 1e-3, cap=10)
+    parts = list(plain)
+    for j in range(3):
+        assert np.array_equal(np.concatenate([p[j] for p in parts]), whole[j])
+    assert np.array_equal(plain.times, one.times) and plain.figures() == one.figures()
+    # and the regions are nearer their times than the plain kernel at the feeds solved before interpolating
+    # (the median: the largest misses are the tight turns that even the feed limit cannot run in time)
+    from polishpath.smooth.timing import DEFAULT_ORDER, solve_region_feeds
+
+    qx, qw = np.polynomial.legendre.leggauss(DEFAULT_ORDER)
+    feeds, _, _ = solve_region_feeds(kc.breaks, kc.coeffs, rb, u, want, 50.0, 0.002, 1e-3, qx, qw)
+    before = KernelRun(interp.INTEGRATORS["taylor"], kc, u0, u1, rb, feeds, 50.0, 0.002, 1e-3, cap=10)
+    list(before)
+    miss = [float(np.median(np.abs(np.diff(k.boundary_times()) / want - 1))) for k in (before, one)]
+    assert miss[1] < 0.5 * miss[0]
+
+
 def interp_nurbs(pts):
     from polishpath.smooth import interpolate_nurbs
 
@@ -132,18 +188,24 @@ def test_keep_samples_false_holds_no_sample_and_reports_the_same_figures(mapped,
 
 def test_keep_samples_false_runs_the_kernel_in_bounded_chunks(mapped, monkeypatch):
     """Memory bounded by the chunk size: no kernel call returns more than chunk_samples samples."""
+    from polishpath.smooth.taylor import RERUN_MAX_SAMPLES
+
     cap, sp = mapped
-    real = interp.INTEGRATORS["taylor"]
-    longest = []
+    for table, integrator, most in ((interp.SCHEDULING_KERNELS, "taylor", 64 + RERUN_MAX_SAMPLES + 1),
+                                    (interp.INTEGRATORS, "ab-am", 64)):
+        real = table[integrator]
+        longest = []
 
-    def recording(*args):
-        out = real(*args)
-        longest.append(len(out[0]))
-        return out
+        def recording(*args, real=real, longest=longest):
+            out = real(*args)
+            longest.append(len(out[0]))
+            return out
 
-    monkeypatch.setitem(interp.INTEGRATORS, "taylor", recording)
-    tp = smooth(sp, feed_mm_min=1200.0, period_ms=4.0, keep_samples=False, chunk_samples=64)
-    assert max(longest) <= 64 and tp.stats["n_samples"] > 64 * 10
+        monkeypatch.setitem(table, integrator, recording)
+        tp = smooth(sp, feed_mm_min=1200.0, period_ms=4.0, keep_samples=False, chunk_samples=64,
+                    integrator=integrator)
+        # the scheduling kernel stops only between regions (or inside one too long to run again)
+        assert max(longest) <= most and tp.stats["n_samples"] > 64 * 10 and len(longest) > 10
 
 
 def test_the_schedule_is_what_the_samples_were_made_with(kept):
@@ -198,18 +260,22 @@ def test_a_piece_run_in_one_go_continues_in_resumed_calls_when_it_is_long(monkey
 
     sp = kept.surface_path
     integrator = kept.provenance.params["integrator"]
+    from polishpath.smooth.taylor import RERUN_MAX_SAMPLES
+
     monkeypatch.setattr(samples_mod, "MAX_CALL_SAMPLES", 1000)
     calls = []
-    real = interp.INTEGRATORS[integrator]
+    table = interp.SCHEDULING_KERNELS if integrator in interp.SCHEDULING_KERNELS else interp.INTEGRATORS
+    real = table[integrator]
 
     def counting(*args):
         out = real(*args)
         calls.append(len(out[0]))
         return out
 
-    monkeypatch.setitem(interp.INTEGRATORS, integrator, counting)
+    monkeypatch.setitem(table, integrator, counting)
     short = smooth(sp, surface=None, feed_mm_min=1200.0, period_ms=4.0, chord_tol_mm=1e-3, integrator=integrator)
-    assert max(calls) <= 1000 and len(calls) > len(kept.stats["sample_pieces"])
+    most = 1000 + (RERUN_MAX_SAMPLES + 1 if table is interp.SCHEDULING_KERNELS else 0)
+    assert max(calls) <= most and len(calls) > len(kept.stats["sample_pieces"])
     assert np.array_equal(short.samples, kept.samples) and np.array_equal(short.feed_mm_min, kept.feed_mm_min)
     assert np.array_equal(short.sample_params, kept.sample_params)
     for key in ("chord_error_max", "feed_fluctuation_rms", "dwell_time_error_max", "dwell_time_error_rms"):

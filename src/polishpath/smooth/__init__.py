@@ -108,6 +108,16 @@ def _joined(parts: list[np.ndarray]) -> np.ndarray:
     return np.ascontiguousarray(parts[0]) if len(parts) == 1 else np.concatenate(parts)
 
 
+def _handed_over(a: np.ndarray) -> np.ndarray:
+    """``a`` marked read-only with every array it is a view of, so the ToolPath takes it without a copy
+    (``types._is_frozen``: nothing else holds these arrays the stage just made)."""
+    b = a
+    while isinstance(b, np.ndarray):
+        b.setflags(write=False)
+        b = b.base
+    return a
+
+
 def piece_curves(curve: NurbsCurve, piece_params: np.ndarray) -> list[NurbsCurve]:
     """Split a joined curve back into its pieces (each clamped, parameter kept).
 
@@ -387,7 +397,8 @@ def smooth(
         if len(curves) > 1:
             progress.update(int(pieces[k + 1]), n, f"dwell points ({spieces[-1]:,} samples)")
         for key, val in res["stats"].items():
-            if key in ("n_samples", "duration_s", "curve_length", "interpolation_s", "schedule_corrected_regions"):
+            if key in ("n_samples", "duration_s", "curve_length", "interpolation_s", "schedule_corrected_regions",
+                       "schedule_rerun_samples"):
                 agg[key] = agg.get(key, 0) + val
             elif key.endswith("_min_mm_min"):
                 agg[key] = min(agg.get(key, np.inf), val)
@@ -438,7 +449,7 @@ def smooth(
         seed=surface_path.provenance.seed,
     )
     if keep_samples:
-        all_samples, all_params, all_feeds = _joined(samples), _joined(sparams), _joined(feeds)
+        all_samples, all_params, all_feeds = (_handed_over(_joined(a)) for a in (samples, sparams, feeds))
     else:
         all_samples, all_params, all_feeds = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
     return ToolPath(curve=curve, dwell_params=dwell_params, samples=all_samples,

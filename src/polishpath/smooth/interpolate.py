@@ -22,7 +22,9 @@ an estimate.
 
 A per-dwell-point time becomes a feed schedule: the region of dwell point k runs
 from the parameter midpoint of the previous interval to that of the next one,
-and the feed there is its arc length divided by the time wanted.
+and its feed makes it take the time wanted under the curvature limit (the
+Taylor kernel finds it as it runs, :func:`.taylor.taylor_schedule_kernel`;
+the others solve it before, :mod:`.timing`).
 
 Units: mm, mm/min for feeds, ms for the period, s for dwell times.
 """
@@ -43,9 +45,9 @@ from ..types import NurbsCurve
 from .abam import abam_kernel
 from .samples import DEFAULT_STREAM_SAMPLES, KernelRun
 from .spans import DIM, STATE_SIZE, chord_errors_kernel, span_bend_bounds
-from .timing import DEFAULT_ORDER, corrected_targets, solve_region_feeds
+from .timing import DEFAULT_ORDER, KERNEL_ORDER, corrected_targets, solve_region_feeds
 from .nurbs import evaluate, span_polynomials
-from .taylor import taylor_kernel
+from .taylor import taylor_kernel, taylor_schedule_kernel
 
 __all__ = ["arc_lengths", "dwell_regions", "interpolate_constant_period", "chord_errors", "INTEGRATORS",
            "DEFAULT_INTEGRATOR", "integrator_kernel", "kernel_curve", "KernelCurve", "DWELL_TIME_TOL"]
@@ -53,9 +55,22 @@ __all__ = ["arc_lengths", "dwell_regions", "interpolate_constant_period", "chord
 DWELL_TIME_TOL = 0.01
 """Relative miss of a region's time beyond which a corrective schedule pass runs (where a faster feed is possible)."""
 
+REGION_RERUN_TOL = 0.02
+"""Relative miss of a region's time beyond which the Taylor kernel runs the region again at a corrected feed
+(:func:`.taylor.taylor_schedule_kernel`). Measured on the benchmark disk (10^5 points, 2 runs at most): at
+0.01, 35 % of the samples are run again for dwell-time errors max / p99 / RMS 0.285 / 0.093 / 0.018; at 0.02,
+20 % for 0.333 / 0.093 / 0.019; at 0.03, 14 % for 0.317 / 0.091 / 0.019 (the whole corrective pass before:
+0.353 / 0.140 / 0.026). 0.02 because at 0.03 the mapped cap of tests/test_smooth.py missed by up to 0.029
+(p99 0.016), more than the corrective pass (0.027, 0.013); at 0.02 by 0.023 (p99 0.011)."""
+
+
 INTEGRATORS = {"taylor": taylor_kernel, "ab-am": abam_kernel}
 """Name -> compiled kernel; every kernel takes and returns the same arrays (see :func:`.taylor.taylor_kernel`).
 The job's option lists the same names (``polishpath.defaults.INTEGRATOR_NAMES``, checked by a test)."""
+
+SCHEDULING_KERNELS = {"taylor": taylor_schedule_kernel}
+"""Integrators whose kernel also finds the dwell regions' feeds as it runs (one pass over the path plus
+the regions it runs again, :func:`.taylor.taylor_schedule_kernel`); the others run whole schedule passes."""
 
 
 def integrator_kernel(name: str):
@@ -75,7 +90,7 @@ def arc_lengths(curve: NurbsCurve, u0: np.ndarray, u1: np.ndarray, split: np.nda
     halves ``[u0, split]`` and ``[split, u1]`` (``split`` defaults to the midpoint;
     pass the dwell parameters so no half straddles a dwell point).
     """
-    gx, gw = np.polynomial.legendre.leggauss(order)
+    gx, gw = np.polynomial.legendre.leggauss(DEFAULT_ORDER)
     u0 = np.asarray(u0, dtype=np.float64)
     u1 = np.asarray(u1, dtype=np.float64)
     sp_ = 0.5 * (u0 + u1) if split is None else np.asarray(split, dtype=np.float64)
@@ -227,14 +242,21 @@ def interpolate_constant_period(
     u_range : (float, float), optional
         Part of the curve to run (default: all of it).
     schedule_passes : int
-        With dwell times: most interpolation runs. The first runs the feeds
-        solved from each region's time under the curvature limit
-        (:func:`.timing.solve_region_feeds`); each further run corrects the
-        regions still off their time by more than :data:`DWELL_TIME_TOL` by the
-        previous run's own miss, and runs only while some region is (the stats
-        say how many ran, ``schedule_passes``, and how many regions the last
-        correction moved, ``schedule_corrected_regions``); the run with the
-        smallest RMS relative miss is kept.
+        With dwell times: most runs of a dwell region. The Taylor integrator
+        (:data:`SCHEDULING_KERNELS`) runs the path once and finds each region's
+        feed as it enters it, from the time the region still wants under the
+        curvature limit; a region still off its time by more than
+        :data:`REGION_RERUN_TOL` is run again at once at the feed corrected by
+        its own miss, up to this many runs (the nearest run is kept;
+        :func:`.taylor.taylor_schedule_kernel`). Other integrators run whole
+        passes: the first at the feeds solved from each region's time
+        (:func:`.timing.solve_region_feeds`), each further one correcting the
+        regions still off by more than :data:`DWELL_TIME_TOL` by the previous
+        run's miss, the run with the smallest RMS relative miss kept. The stats
+        say how many runs a region took at most (``schedule_passes``), how many
+        regions were corrected (``schedule_corrected_regions``) and, for the
+        Taylor kernel, how many samples the runs made again
+        (``schedule_rerun_samples``; 0 for whole passes).
     integrator : {"taylor", "ab-am"}
         How the parameter advances each period (:data:`INTEGRATORS`).
     keep_samples : bool
@@ -294,8 +316,13 @@ def interpolate_constant_period(
         if not np.all(dt > 0) or not np.all(np.isfinite(dt)):
             raise ParameterError("Every dwell time must be a positive number of seconds.")
         rb = dwell_regions(dp, u0, u1)
-        # each region's feed from its time under the curvature limit, before any sample (timing.py)
-        rfeed, model, rl = solve_region_feeds(kc.breaks, kc.coeffs, rb, dp, dt, vmax, T, chord_tol_mm, gx, gw)
+        in_kernel = integrator in SCHEDULING_KERNELS
+        if in_kernel:
+            # the kernel finds each region's feed as it enters it (room here, never used as a feed)
+            rfeed, model = np.full(len(dp), 1.0), None
+        else:
+            # each region's feed from its time under the curvature limit, before any sample (timing.py)
+            rfeed, model, _ = solve_region_feeds(kc.breaks, kc.coeffs, rb, dp, dt, vmax, T, chord_tol_mm, gx, gw)
     else:
         rb = np.array([u0, u1])
         rfeed = np.array([feed_mm_min / 60.0])
@@ -306,9 +333,9 @@ def interpolate_constant_period(
     chunked = not keep_samples
     size = int(chunk_samples) if chunked else None
 
-    def run(feed, room):
+    def run(feed, room, schedule=None):
         """One interpolation run: (kernel run with its figures, samples or None, its check or None)."""
-        kr = KernelRun(kernel, kc, u0, u1, rb, feed, vmax, T, chord_tol_mm, size=size, cap=room)
+        kr = KernelRun(kernel, kc, u0, u1, rb, feed, vmax, T, chord_tol_mm, size=size, cap=room, schedule=schedule)
         check = chunk_check() if (chunk_check is not None and chunked) else None
         held = None
         for chunk in kr:
@@ -320,11 +347,18 @@ def interpolate_constant_period(
             held = (np.zeros(0), np.zeros((0, DIM)), np.zeros(0))
         return kr, held, check
 
-    kr, held, check = run(rfeed, cap)
-    passes, corrected = 1, 0
+    in_kernel = dwell_times is not None and in_kernel
+    if in_kernel:
+        kx, kw = np.polynomial.legendre.leggauss(KERNEL_ORDER)
+        kr, held, check = run(rfeed, cap, (SCHEDULING_KERNELS[integrator], dt, dp, kx, kw,
+                                           max(1, int(schedule_passes)), REGION_RERUN_TOL))
+        rfeed = kr.region_feed
+    else:
+        kr, held, check = run(rfeed, cap)
+    corrected, _, passes = kr.reruns()
     progress.update(kr.n, None, "samples in schedule pass 1")
     best = (kr, held, check, rfeed)
-    if dwell_times is not None:
+    if dwell_times is not None and not in_kernel:
         # The model leaves what it does not see: a step keeps its start's feed over the period,
         # the chord-error check shortens steps the circle's estimate let through. Where a run's
         # region times are off by more than DWELL_TIME_TOL (and a faster feed is possible), the
@@ -374,9 +408,10 @@ def interpolate_constant_period(
     figs = kr.figures()
     length = figs.pop("steps_length_mm")
     stats = {"n_samples": figs.pop("n_samples"), "chord_tol_mm": float(chord_tol_mm), "integrator": integrator,
-             "schedule_passes": passes, "schedule_corrected_regions": corrected, "interpolation_s": float(t_interp)}
+             "schedule_passes": passes, "schedule_corrected_regions": corrected,
+             "schedule_rerun_samples": kr.reruns()[1], "interpolation_s": float(t_interp)}
     stats.update(figs)
-    stats["curve_length"] = float(rl.sum()) if dwell_times is not None else length
+    stats["curve_length"] = length
     out = {"samples": pp[:, :d], "params": pu, "feed_mm_min": pv * 60.0, "stats": stats,
            "region_bounds": rb, "region_feed": np.asarray(best_feed, dtype=np.float64), "u_range": (u0, u1),
            "chunk_check": check}

@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import ParameterError, SmoothingError
 from ..types import SampleChunk, ToolPath
 from .spans import (ST_CE_MAX, ST_COUNT, ST_DONE, ST_FALLBACKS, ST_FL_MAX, ST_FL_N, ST_FL_SQ, ST_JB, ST_LENGTH,
-                    ST_LIMITED, ST_PRED_MAX, ST_V_MAX, ST_V_MIN, new_state)
+                    ST_LIMITED, ST_PRED_MAX, ST_RERUN_REGIONS, ST_RERUN_SAMPLES, ST_RUNS_MAX, ST_V_MAX, ST_V_MIN, new_state)
 
 __all__ = ["KernelRun", "iter_sample_chunks", "DEFAULT_STREAM_SAMPLES"]
 
@@ -59,13 +59,26 @@ class KernelRun:
         The curve's spans and bend bounds (:func:`.interpolate.kernel_curve`).
     u0, u1, region_b, region_feed, vmax, period_s, tol
         The piece and its schedule (see :func:`.taylor.taylor_kernel`).
+    schedule : tuple, optional
+        ``(kernel, region_want, dwell_params, gx, gw, max_runs, rel_tol)``: run the
+        scheduling kernel (:func:`.taylor.taylor_schedule_kernel`) instead, which
+        finds each region's feed as it runs (``region_feed`` is then only room:
+        :attr:`region_feed` holds the feeds found, which regenerate the samples).
     """
 
     def __init__(self, kernel, kc, u0, u1, region_b, region_feed, vmax, period_s, tol,
-                 size: int | None = None, cap: int = 1024):
+                 size: int | None = None, cap: int = 1024, schedule: tuple | None = None):
         self.region_b = np.ascontiguousarray(region_b, dtype=np.float64)
+        # a copy: the scheduling kernel writes the feeds it finds into it
+        self.region_feed = np.array(region_feed, dtype=np.float64)
         self.args = (kc.breaks, kc.coeffs, kc.bends, kc.size, float(u0), float(u1), self.region_b,
-                     np.ascontiguousarray(region_feed, dtype=np.float64), float(vmax), float(period_s), float(tol))
+                     self.region_feed, float(vmax), float(period_s), float(tol))
+        self.extra = ()
+        if schedule is not None:
+            kernel, want, dp, gx, gw, max_runs, rel_tol = schedule
+            self.extra = (np.ascontiguousarray(want, dtype=np.float64), np.ascontiguousarray(dp, dtype=np.float64),
+                          np.ascontiguousarray(gx, dtype=np.float64), np.ascontiguousarray(gw, dtype=np.float64),
+                          int(max_runs), float(rel_tol))
         self.kernel = kernel
         self.size = size
         self.cap = max(int(cap), 16)
@@ -78,7 +91,7 @@ class KernelRun:
         if self.size is not None:
             while state[ST_DONE] == 0.0:
                 before = state[ST_COUNT]
-                out = self.kernel(*self.args, state, int(self.size), self.times)
+                out = self.kernel(*self.args, state, int(self.size), self.times, *self.extra)
                 if len(out[0]):
                     yield out
                 elif state[ST_COUNT] == before:  # cannot happen (a kernel emits or finishes); never loop on it
@@ -88,7 +101,7 @@ class KernelRun:
         room = min(self.cap, MAX_CALL_SAMPLES)
         while state[ST_DONE] == 0.0:
             before = state[ST_COUNT]
-            parts.append(self.kernel(*self.args, state, room, self.times))
+            parts.append(self.kernel(*self.args, state, room, self.times, *self.extra))
             if state[ST_COUNT] == before:
                 break
             # the expected count was short (a little more at a time), or the piece is longer than one call
@@ -101,6 +114,12 @@ class KernelRun:
     @property
     def n(self) -> int:
         return int(self.state[ST_COUNT])
+
+    def reruns(self) -> tuple[int, int, int]:
+        """(regions the scheduling kernel ran again, samples those runs made and discarded, the most runs
+        of one region); (0, 0, 1) otherwise."""
+        return (int(self.state[ST_RERUN_REGIONS]), int(self.state[ST_RERUN_SAMPLES]),
+                max(int(self.state[ST_RUNS_MAX]), 1))
 
     def boundary_times(self) -> np.ndarray:
         """(R + 1,) time at each dwell-region boundary, s (past the last sample: the last sample's)."""

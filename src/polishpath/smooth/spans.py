@@ -93,10 +93,16 @@ ST_LENGTH = 20     # sum of the chords, mm
 ST_PRED_MAX = 21   # largest |chord / (V T) - 1| of the integrator's own step before any correction
 ST_FALLBACKS = 22  # steps left to the safeguard (Adams) / to the bracketing corrector (Taylor)
 ST_JB = 23         # dwell-region boundaries already timed
-STATE_SIZE = 24
+ST_SR = 24         # scheduling kernel: the region run now, whose time is still to be checked (-1: none)
+ST_RSTART = 25     # scheduling kernel: samples emitted when that region was entered
+ST_RERUN_REGIONS = 26  # scheduling kernel: regions run again with a corrected feed
+ST_RERUN_SAMPLES = 27  # scheduling kernel: samples made by the runs that were run again (discarded)
+ST_RUNS_MAX = 28   # scheduling kernel: the most runs of one region
+STATE_SIZE = 29
 """Floats of a kernel's resumable state (``ST_*`` indices): where the piece stands (samples
-emitted, the last parameter, done), the Adams integrator's history, and the figures of the
-samples so far, so that chunked calls and one call report the same figures."""
+emitted, the last parameter, done), the Adams integrator's history, the scheduling kernel's
+region under way, and the figures of the samples so far, so that chunked calls and one call
+report the same figures."""
 
 
 def new_state() -> np.ndarray:
@@ -104,6 +110,7 @@ def new_state() -> np.ndarray:
     st = np.zeros(STATE_SIZE)
     st[ST_V_MIN] = np.inf
     st[ST_V_MAX] = -np.inf
+    st[ST_SR] = -1.0
     return st
 
 
