@@ -5,21 +5,33 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 OUT    ?= out
+# pytest-xdist workers for `make test`: auto = one per CPU the process may use; 0 = no workers (one process)
+TEST_WORKERS ?= auto
 
 .PHONY: demo test venv install install-test system-deps bench clean
 
+# The pip that comes with Python 3.11+ installs the package (editable installs need pip >= 21.3),
+# so a fresh venv is not upgraded first (that was ~8 s of network look-ups on every fresh checkout).
 $(BIN)/python:
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "polishpath needs Python 3.11 or newer, found " + sys.version.split()[0]'
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
 
 venv: $(BIN)/python
 
-install: venv
+# The editable install follows src/ by itself, so pip runs again only when the package's metadata
+# (pyproject.toml, the version) is newer than the last install: a pip run that changes nothing
+# still takes ~12 s (it builds the editable wheel), which every `make demo` and `make test` paid.
+$(VENV)/.installed: pyproject.toml src/polishpath/_version.py | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
+	@touch $@
 
-install-test: venv
+$(VENV)/.installed-test: pyproject.toml src/polishpath/_version.py | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[test]'
+	@touch $@
+
+install: $(VENV)/.installed
+
+install-test: $(VENV)/.installed-test
 
 # Debian packages the tests need: headless chromium for the browser test (skipped when present or
 # not root), and LinuxCNC's standalone interpreter rs274 for tests/test_linuxcnc.py (fetched and
@@ -31,8 +43,10 @@ system-deps:
 demo: install
 	$(BIN)/polishpath plan hemisphere --spacing 0.5 --seed 1 -o $(OUT)
 
+# the suite on every core, each test file on one worker (its module-scoped fixtures built once);
+# tests/conftest.py compiles numba's kernels once before the workers start
 test: install-test system-deps
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # benchmarks use the optional fast sparse Cholesky when it can be built (Debian libsuitesparse-dev)
 bench: install-test

@@ -3,11 +3,17 @@
 Real meshes live in ``../shared/data/meshes`` (see its SOURCES.md). Tests that
 need them use the ``shared_mesh`` fixture and skip with a clear reason where
 ``../shared`` is absent (a user's clone).
+
+Also the hooks that let the suite run on several cores (``make test``: pytest-xdist);
+see the end of this file.
 """
 
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -28,3 +34,48 @@ def shared_mesh_path(name: str) -> Path:
 def shared_mesh():
     """``shared_mesh("lilium.obj") -> Path`` (skips when ../shared is absent)."""
     return shared_mesh_path
+
+
+# --- running the suite on several cores (pytest-xdist, `make test`) ---------------------------------
+#
+# `make test` runs ``pytest -n auto --dist loadfile``: each test file runs whole on one worker, so a
+# module-scoped fixture (a planned job, a paper run) is built once, not once per worker. (``loadgroup``
+# with per-test groups would balance finer, but with pytest 9.2 xdist 3.8 silently ignores the groups:
+# pytest-xdist issue 1386.) Below: numba's kernels are compiled once, before the workers start,
+# instead of by every worker, and every command-line subprocess, at once on a fresh checkout.
+
+_WARM_UP = [sys.executable, "-m", "polishpath", "plan", "hemisphere:R=12,triangles=700", "--spacing", "1",
+            "--seed", "8", "--no-report", "-q", "-o"]
+
+
+def _workers(config: pytest.Config) -> int:
+    """How many xdist workers this run starts (0 in one process, and inside a worker)."""
+    if hasattr(config, "workerinput"):
+        return 0
+    n = getattr(config.option, "numprocesses", None)
+    return n if isinstance(n, int) else 0
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Before xdist starts its workers: one small job compiles (or loads) numba's on-disk cache.
+
+    Without it every worker compiles the same kernels at the same time on a fresh checkout (about a
+    minute of CPU each), and so does every command-line subprocess a test starts meanwhile. The job
+    runs in a subprocess with this checkout's sources first, so it warms the cache the tests use. A
+    failure here only skips the warm-up: the tests that run the same code report it.
+    """
+    if _workers(session.config) < 2 or session.config.option.collectonly:
+        return
+    env = dict(os.environ, PYTHONPATH=str(REPO / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    with tempfile.TemporaryDirectory(prefix="polishpath-warm-up-") as d:
+        try:
+            r = subprocess.run([*_WARM_UP, str(Path(d) / "out")], capture_output=True, text=True, env=env,
+                               timeout=900)
+        except subprocess.TimeoutExpired:
+            print("\nnote: the numba warm-up job took over 900 s; the workers compile what it missed",
+                  file=sys.stderr)
+            return
+    if r.returncode != 0:
+        print(f"\nnote: the numba warm-up job failed (exit {r.returncode}); the tests will say why\n"
+              f"{r.stderr[-2000:]}", file=sys.stderr)
