@@ -460,3 +460,26 @@ def test_the_tool_path_takes_the_stage_s_frozen_arrays_without_a_copy():
         assert not other.samples.flags.writeable
     mine[0, 0] += 1.0
     assert other.samples[0, 0] == tp.samples[0, 0]
+
+
+def test_the_compiled_collocation_band_is_the_vectorised_basis_scattered():
+    """interpolate_nurbs assembles its banded system in one compiled loop: the same values, bit for bit, as
+    basis_functions (P&T A2.2, vectorised) scattered into LAPACK's banded storage."""
+    from polishpath.smooth.nurbs import _collocation_band, averaged_knots, basis_functions, find_spans, interpolation_params
+
+    for n, p in ((200, 3), (7, 2), (4, 3)):
+        pts = _walk(n, seed=n)
+        n = len(pts)  # (the walk may stop early)
+        u = interpolation_params(pts, "chord")
+        knots = averaged_knots(u, p)
+        spans = find_spans(knots, p, n, u)
+        ab, lo, up = _collocation_band(knots, p, spans, u)
+        basis = basis_functions(knots, p, spans, u)
+        dense = np.zeros((n, n))
+        for k in range(n):
+            dense[k, spans[k] - p: spans[k] + 1] = basis[k]
+        rows, cols = np.nonzero(dense)
+        assert lo == max(0, (rows - cols).max()) and up == max(0, (cols - rows).max())
+        want = np.zeros((lo + up + 1, n))
+        want[up + rows - cols, cols] = dense[rows, cols]
+        assert np.array_equal(ab, want)

@@ -133,13 +133,21 @@ class BoundaryCheck:
 
     def excursion(self, points: np.ndarray) -> np.ndarray:
         """Distance by which each point (M, 3) lies beyond the part's boundary, (M,) mm (0 over the part)."""
+        out = np.zeros(len(points))
+        cand, exc = self.near_excursion(points)
+        out[cand] = exc
+        return out
+
+    def near_excursion(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`excursion` at the points that can be beyond the boundary only: their indices (k,), ascending,
+        and their excursions (k,) mm (every other point's is 0; no array of the points' size is made)."""
         pts = np.ascontiguousarray(points, dtype=np.float64)
-        out = np.zeros(len(pts))
+        none = (np.zeros(0, np.int64), np.zeros(0))
         if len(pts) == 0 or len(self.be) == 0:
-            return out
+            return none
         cand = _near_boundary(pts, self.tree, self.reach + self.half)
         if len(cand) == 0:
-            return out
+            return none
         dist, closest = _closest_points(pts[cand], self.v, self.f)
         # is the closest point on a boundary edge? check the edges whose midpoints are near it
         k = min(16, len(self.be))
@@ -148,8 +156,7 @@ class BoundaryCheck:
         d_edge = _edge_distance(np.ascontiguousarray(closest, dtype=np.float64), self.a, self.b,
                                 np.ascontiguousarray(near, dtype=np.int64))
         on_boundary = d_edge <= 1e-9 * max(self.scale, 1.0)
-        out[cand] = np.where(on_boundary, dist, 0.0)
-        return out
+        return cand, np.where(on_boundary, dist, 0.0)
 
     def tally(self) -> "BoundaryTally":
         """A fresh accumulator of the excursion over chunks of points."""
@@ -165,7 +172,7 @@ class BoundaryTally:
         self.count = 0
 
     def __call__(self, points: np.ndarray) -> None:
-        exc = self.check.excursion(points)
+        _, exc = self.check.near_excursion(points)
         if len(exc):
             self.max_mm = max(self.max_mm, float(exc.max()))
             self.count += int(np.count_nonzero(exc > 0.0))

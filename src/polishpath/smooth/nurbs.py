@@ -229,16 +229,7 @@ def interpolate_nurbs(
     u = interpolation_params(pts, parametrization)
     knots = averaged_knots(u, p)
     spans = find_spans(knots, p, n_pts, u)
-    basis = basis_functions(knots, p, spans, u)
-    rows = np.repeat(np.arange(n_pts), p + 1)
-    cols = (spans[:, None] - p + np.arange(p + 1)[None, :]).ravel()
-    vals = basis.ravel()
-    nz = vals != 0
-    rows, cols, vals = rows[nz], cols[nz], vals[nz]
-    lo = int(max(0, (rows - cols).max()))
-    up = int(max(0, (cols - rows).max()))
-    ab = np.zeros((lo + up + 1, n_pts))
-    ab[up + rows - cols, cols] = vals
+    ab, lo, up = _collocation_band(np.ascontiguousarray(knots), p, spans, u)
     try:
         ctrl = solve_banded((lo, up), ab, pts, check_finite=False)
     except np.linalg.LinAlgError as exc:  # pragma: no cover - averaged knots keep it regular
@@ -267,6 +258,38 @@ def _basis_one(U, p, s, u, out, left, right):  # pragma: no cover - numba
             out[r] = saved + right[r + 1] * temp
             saved = left[j - r] * temp
         out[j] = saved
+
+
+@numba.njit(cache=True)
+def _collocation_band(U, p, spans, u):  # pragma: no cover - numba
+    """The collocation matrix of :func:`interpolate_nurbs` in LAPACK's banded storage, and its (lo, up) bandwidths.
+
+    Row k holds the ``p + 1`` basis functions at ``u[k]`` (:func:`_basis_one`, the arithmetic of
+    :func:`basis_functions`) in columns ``spans[k] - p ..``; only the non-zero ones set the bandwidths.
+    A compiled loop: the vectorised basis and scatter took 0.8 s at 10^6 points.
+    """
+    n = u.shape[0]
+    bas = np.zeros((n, p + 1))
+    b = np.zeros(p + 1)
+    left = np.zeros(p + 1)
+    right = np.zeros(p + 1)
+    lo = 0
+    up = 0
+    for k in range(n):
+        _basis_one(U, p, spans[k], u[k], b, left, right)
+        for j in range(p + 1):
+            bas[k, j] = b[j]
+            if b[j] != 0.0:
+                c = spans[k] - p + j
+                lo = max(lo, k - c)
+                up = max(up, c - k)
+    ab = np.zeros((lo + up + 1, n))
+    for k in range(n):
+        for j in range(p + 1):
+            if bas[k, j] != 0.0:
+                c = spans[k] - p + j
+                ab[up + k - c, c] = bas[k, j]
+    return ab, lo, up
 
 
 @numba.njit(cache=True)
