@@ -18,9 +18,14 @@ writers formatted before; about 5x faster than savetxt). Peers run on at most
 the ratio to savetxt. ``--job`` adds a real job (hemisphere R = 12 mm at
 0.5 mm; ``--toolpath FILE``: a pickled ToolPath): the whole G-code writer
 (segmenting + formatting) in samples/s and MB/s, lines and bytes per dwell
-point: the fixed period, straight blocks and helical arcs at chord tolerances
-of 1, 2, 5 and 10 um (1 % time tolerance), the default (1 % of the spacing)
-and with a tool radius (G93). The machine is shared (load average printed).
+point: the fixed period, straight blocks, helical arcs with every dwell point a
+block end (``dwell_block_ends``, the layout before) and arcs that may pass
+through dwell points (the default) at chord tolerances of 1, 2, 5 and 10 um
+(1 % time tolerance), the default (1 % of the spacing) with the spaced words of
+before (``G3 X0.3731 ... F388.702``) and compact, and with a tool radius (G93);
+``--gcode-cases default`` only the default and the layout before (for 10^6
+points). The share of dwell points passed through by a block is printed. The
+machine is shared (load average printed).
 """
 
 from __future__ import annotations
@@ -105,7 +110,10 @@ def bench_rows(n: int, work: Path) -> list[tuple[str, float, float, float, float
     return out
 
 
-def bench_job(pickled: str | None = None) -> None:
+SPACED = {"word_separator": " ", "leading_zero": True, "trailing_zeros": True, "feed_decimals": 3}
+
+
+def bench_job(pickled: str | None = None, which: str = "all") -> None:
     """The whole G-code writer on a real job: MB/s, lines and bytes per dwell point, lines against arcs."""
     from polishpath.export import write_gcode
     from polishpath.pipeline import run
@@ -123,13 +131,20 @@ def bench_job(pickled: str | None = None) -> None:
     write_gcode(tp, io.BytesIO())  # compile / load the kernels
     print(f"\njob: {label}: {n:,} dwell points, {m:,} samples; load average {os.getloadavg()[0]:.2f}")
     print("| G-code | chord tol | time tol | s | M samples/s | MB | MB/s | lines / dwell point | "
-          "bytes / dwell point | arcs |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    cases = [("fixed period", {"segmenting": "period"})]
-    for arcs in (False, True):
-        for tol in (0.001, 0.002, 0.005, 0.01):
-            cases.append(("arcs + lines" if arcs else "lines", {"chord_tol_mm": tol, "arcs": arcs}))
-    cases += [("default", {}), ("default, G93 r = 5 mm", {"tool_radius": 5.0})]
+          "bytes / dwell point | arcs | dwell points passed |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    cases = []
+    if which == "all":
+        cases.append(("fixed period", {"segmenting": "period"}))
+        for label, kw in (("lines", {"arcs": False}), ("arcs, dwell points block ends", {"dwell_block_ends": True}),
+                          ("arcs through dwell points", {})):
+            for tol in (0.001, 0.002, 0.005, 0.01):
+                cases.append((label, {"chord_tol_mm": tol, **kw}))
+    cases += [("before: spaced words, dwell points block ends", {**SPACED, "dwell_block_ends": True}),
+              ("spaced words, through dwell points", SPACED),
+              ("default", {})]
+    if which == "all":
+        cases.append(("default, G93 r = 5 mm", {"tool_radius": 5.0}))
     for label, kw in cases:
         buf = io.BytesIO()
         t0 = time.perf_counter()
@@ -139,14 +154,30 @@ def bench_job(pickled: str | None = None) -> None:
         tol = "" if label == "fixed period" else f"{info['segment_chord_tol_mm'] * 1000:g} um"
         tt = "" if label == "fixed period" else f"{info['time_tol']:g}"
         share = info["arc_blocks"] / max(info["motion_blocks"], 1)
+        passed = _passed_share(tp, kw) if label != "fixed period" and which == "all" else float("nan")
         print(f"| {label} | {tol} | {tt} | {t:.2f} | {m / t / 1e6:.2f} | {mb:.1f} | {mb / t:.1f} | "
-              f"{info['lines_per_dwell_point']:.2f} | {info['bytes_per_dwell_point']:.0f} | {share:.0%} |", flush=True)
+              f"{info['lines_per_dwell_point']:.2f} | {info['bytes_per_dwell_point']:.1f} | {share:.0%} | "
+              f"{passed:.0%} |", flush=True)
+
+
+def _passed_share(tp, kw: dict) -> float:
+    """Share of the dwell points that lie inside a block (not a block end)."""
+    from polishpath.export import get_post
+
+    kw = {k: v for k, v in kw.items() if k != "tool_radius"}
+    inside = 0
+    for P, T, U, *_ in get_post("linuxcnc", kw).segment_blocks(tp):
+        d = tp.dwell_params[(tp.dwell_params > U[0]) & (tp.dwell_params < U[-1])]
+        inside += int(np.count_nonzero(~np.isin(d, U)))
+    return inside / max(len(tp.dwell_params), 1)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", default="1e5,1e6", help="row counts, comma-separated (e.g. 1e5,1e6,1e7)")
     ap.add_argument("--job", action="store_true", help="also the whole G-code writer on a real job")
+    ap.add_argument("--gcode-cases", choices=("all", "default"), default="all",
+                    help="with --job: every G-code case, or only the default and the layout before")
     ap.add_argument("--toolpath", default=None,
                     help="with --job: a pickled ToolPath (e.g. of a benchmarks/bench_job.py disk) instead of the "
                          "hemisphere job")
@@ -166,7 +197,7 @@ def main(argv=None) -> int:
                 print(f"| {name} | {n:.0e} | {mb:.0f} | {ours:.1f} | {sav:.1f} | {pct:.1f} | {ours / sav:.1f} | "
                       f"{ours / pct:.1f} | {ok} |", flush=True)
     if args.job:
-        bench_job(args.toolpath)
+        bench_job(args.toolpath, args.gcode_cases)
     return 0
 
 

@@ -164,6 +164,13 @@ def moves_pygcode(text: str) -> Moves:
                  np.array(centres, float).reshape(-1, 2), np.array(turns, np.int64))
 
 
+def _seg_distance(q, a, b) -> float:
+    e = b - a
+    ll = float(e @ e)
+    t = min(max(float((q - a) @ e) / ll, 0.0), 1.0) if ll > 0 else 0.0
+    return float(np.linalg.norm(a + t * e - q))
+
+
 def _move_fraction(q, start, end, centre, turn):
     """Distance of point q (3,) from one move and the fraction of the move's length at its nearest point
     (a straight move: the projection; an arc: 2001 points along it, then 2001 more around the nearest)."""
@@ -181,6 +188,49 @@ def _move_fraction(q, start, end, centre, turn):
     return best
 
 
+def dwell_moves(points: np.ndarray, dwell_points: np.ndarray, match: float = 2e-4, centres: np.ndarray | None = None,
+                turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each dwell point is on one piece's path: (first, last, distance).
+
+    ``points`` (k + 1, 3): the path as run (approach end, then every block's end); ``centres`` / ``turns``:
+    the blocks' arcs (:func:`helix_lengths`; None: straight). A dwell point is a block end (within
+    ``match`` mm; ``first`` is then the move starting there, ``last`` the move ending there) or lies on one
+    move (``first`` = ``last`` = that move), found in path order; ``distance``: from the path, mm.
+    """
+    k = len(points) - 1
+    centres = np.full((k, 2), np.nan) if centres is None else np.asarray(centres, float)
+    turns = np.zeros(k, np.int64) if turns is None else np.asarray(turns)
+    first, last, dist = [], [], []
+    start = 0
+    for d in dwell_points:
+        found = None
+        for i in range(start, k + 1):  # in path order: the first block end or move the dwell point is on
+            e = float(np.linalg.norm(points[i] - d))
+            if e <= match:
+                found = (i, i - 1, e)
+                break
+            if i == k:
+                break
+            if float(np.linalg.norm(points[i + 1] - d)) <= match:
+                continue  # the move ends there: a block end, found next
+            if turns[i] != 0:  # cheap rejections first: off the circle, or far from the chord
+                r = np.linalg.norm(points[i, :2] - centres[i])
+                if abs(np.linalg.norm(d[:2] - centres[i]) - r) > match:
+                    continue
+            elif _seg_distance(d, points[i], points[i + 1]) > match:
+                continue
+            di, _ = _move_fraction(d, points[i], points[i + 1], centres[i], turns[i])
+            if di <= match:
+                found = (i, i, di)
+                break
+        assert found is not None, f"dwell point {d} is not on the path after block {start}"
+        first.append(found[0])
+        last.append(found[1])
+        dist.append(found[2])
+        start = found[0]
+    return np.array(first), np.array(last), np.array(dist)
+
+
 def delivered_region_times(points: np.ndarray, times: np.ndarray, dwell_points: np.ndarray,
                            boundary_points: np.ndarray, match: float = 2e-4, centres: np.ndarray | None = None,
                            turns: np.ndarray | None = None) -> np.ndarray:
@@ -189,7 +239,7 @@ def delivered_region_times(points: np.ndarray, times: np.ndarray, dwell_points: 
     ``points`` (k + 1, 3): the piece's path as run (approach end, then every block's
     end); ``times`` (k,): each block's time as the controller derives it;
     ``centres`` (k, 2) and ``turns`` (k,): the blocks' arcs (see :func:`helix_lengths`; None: straight);
-    ``dwell_points`` (q, 3) in order, each a block end (found within ``match`` mm);
+    ``dwell_points`` (q, 3) in order, each a block end or on a block (within ``match`` mm, :func:`dwell_moves`);
     ``boundary_points`` (q - 1, 3): the curve at the region boundaries (the parameter
     midpoints between dwell points). Each boundary is projected onto the nearest
     block between its two dwell points; the controller passes it at that block's
@@ -199,17 +249,11 @@ def delivered_region_times(points: np.ndarray, times: np.ndarray, dwell_points: 
     centres = np.full((k, 2), np.nan) if centres is None else np.asarray(centres, float)
     turns = np.zeros(k, np.int64) if turns is None else np.asarray(turns)
     cum = np.concatenate([[0.0], np.cumsum(times)])
-    idx, start = [], 0
-    for d in dwell_points:
-        dist = np.linalg.norm(points[start:] - d, axis=1)
-        hit = np.flatnonzero(dist <= match)
-        assert len(hit), f"dwell point {d} is not a block end"
-        idx.append(start + int(hit[0]))
-        start = idx[-1]
+    first, last, _ = dwell_moves(points, dwell_points, match, centres, turns)
     tb = []
     for j, q in enumerate(boundary_points):
-        a, b = idx[j], idx[j + 1]
-        best = min((_move_fraction(q, points[i], points[i + 1], centres[i], turns[i]) + (i,) for i in range(a, b)))
+        a, b = first[j], max(last[j + 1], first[j])
+        best = min((_move_fraction(q, points[i], points[i + 1], centres[i], turns[i]) + (i,) for i in range(a, b + 1)))
         _, lam, i = best
         tb.append(cum[i] + lam * (cum[i + 1] - cum[i]))
     edges = np.concatenate([[0.0], tb, [cum[-1]]])

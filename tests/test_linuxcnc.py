@@ -99,12 +99,15 @@ def test_rs274_reads_the_linear_gcode_of_a_small_job(rs274, small_job):
     assert far <= 0.001 + RES * np.sqrt(3)
 
 
-@pytest.fixture(scope="module", params=["hemisphere", "lilium"])
+@pytest.fixture(scope="module", params=["hemisphere", "lilium", "flat"])
 def job(request):
+    """Small jobs: curved parts (every dwell point a block end) and a flat one (blocks pass through dwell points)."""
     from polishpath.pipeline import run
 
     if request.param == "hemisphere":
         return run(surface="hemisphere:R=12,triangles=3000", spacing=1.5, seed=11, report=False)
+    if request.param == "flat":
+        return run(surface="sinusoidal:amplitude=0,size=14,triangles=800", spacing=0.5, seed=3, report=False)
     mesh = shared_mesh_path("lilium.obj")
     return run(surface=str(mesh), scale=20.0, spacing=1.5, seed=3, report=False)
 
@@ -143,10 +146,11 @@ def test_rs274_runs_every_move_with_its_planned_time_at_the_fixed_period(rs274, 
 def test_rs274_spends_the_scheduled_time_around_every_dwell_point(rs274, job, radius, machine, arcs, tmp_path):
     """The chord-tolerance blocks (lines and helical arcs) as LinuxCNC reads them: each dwell point's region
     within 1 % of its schedule, every arc's time its helix's length at the F in force."""
-    from gcode_helpers import delivered_region_times, points_at_params
+    from gcode_helpers import delivered_region_times, dwell_moves, points_at_params
     from polishpath.smooth import dwell_regions
 
     tp = job.tool_path
+    passed = 0
     if machine:
         from conftest import REPO
         from polishpath.schedule import load_machine, schedule_feeds
@@ -172,10 +176,16 @@ def test_rs274_spends_the_scheduled_time_around_every_dwell_point(rs274, job, ra
         rb = dwell_regions(tp.dwell_params[da:db], u[0], u[-1])
         sched = np.diff(np.interp(rb, u, t))
         bq = points_at_params(driven[a:b], u, rb[1:-1])  # where the schedule places each region boundary
-        got = delivered_region_times(pts[k], times[k], sp.xyz[da:db] + radius * sp.normals[da:db], bq,
-                                     centres=centres[k], turns=turns[k])
+        dw = sp.xyz[da:db] + radius * sp.normals[da:db]
+        got = delivered_region_times(pts[k], times[k], dw, bq, centres=centres[k], turns=turns[k])
         worst = max(worst, float(np.abs(got / sched - 1).max()))
+        first, last, dist = dwell_moves(pts[k], dw, 2e-4, centres[k], turns[k])
+        assert dist.max() <= 1e-4 + RES  # every dwell point on the path as rs274 runs it (4 decimals)
+        passed += int(np.count_nonzero(first == last))
     assert worst <= 0.01 + 2e-4  # time_tol; rs274 prints F to 4 decimals
+    flat = np.ptp(tp.samples[:, 2]) == 0
+    # blocks pass through dwell points on the flat part (arcs through them; helices on a curved part rarely)
+    assert (passed > 0.2 * len(sp.xyz)) == (flat and arcs)
     # and the whole program's time as rs274 derives it is the post's machining time
     assert canon.segment_times().sum() == pytest.approx(info["machining_time_s"], rel=1e-4)
 

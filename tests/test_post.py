@@ -43,6 +43,14 @@ def _words(line: str) -> dict[str, float]:
     return {L: float(v) for L, v in re.findall(r"([A-Z])([-+]?\d*\.?\d*)", line)}
 
 
+@pytest.fixture(scope="module")
+def flat_path():
+    """A pseudo-random path on a flat square (z = 0): where blocks may pass through dwell points."""
+    from polishpath.pipeline import run
+
+    return run(surface="sinusoidal:amplitude=0,size=14,triangles=800", spacing=0.5, seed=3, report=False).tool_path
+
+
 def _lines(text: str) -> list[str]:
     return [ln for ln in text.splitlines() if ln and not ln.startswith("(") and ln != "%"]
 
@@ -524,6 +532,22 @@ def _circle_through(a, m, c):
     return a[:2] + [ux, uy], float(np.hypot(ux, uy)), (1 if den > 0 else -1)
 
 
+def _dist_same_angle(q, start, end, centre, turn):
+    """Distance of one point q (3,) from the move's point at q's angle about the centre (a straight move: from
+    the segment): an upper bound of its distance to the move, exact for a point on it."""
+    if turn == 0:
+        return float(_dist_to_segment(q[None, :], start, end)[0])
+    va, vb, vq = start[:2] - centre, end[:2] - centre, q[:2] - centre
+
+    def sweep(a, b):
+        ph = np.arctan2(turn * (a[0] * b[1] - a[1] * b[0]), a @ b)
+        return ph + 2 * np.pi if ph <= 0 else ph
+
+    lam = sweep(va, vq) / sweep(va, vb)
+    assert 0 < lam < 1, lam
+    return float(np.linalg.norm(arc_points(start, end, centre, turn, np.array([lam]))[0] - q))
+
+
 def _dist_to_move(q, start, end, centre, turn):
     """Distance of points q (m, 3) from a move (straight, or the helix of gcode_helpers.arc_points): dense
     points along it, refined around the nearest (a bound from above of the true distance, to ~1e-9 mm)."""
@@ -539,47 +563,83 @@ def _dist_to_move(q, start, end, centre, turn):
     return np.array(out)
 
 
-@pytest.mark.parametrize("radius, arcs", [(0.0, True), (3.0, True), (0.0, False)])
-def test_segmenting_keeps_dwell_points_on_the_path_and_the_chord_within_tolerance(tool_path, radius, arcs):
+@pytest.mark.parametrize("part, radius, arcs, ends", [("cap", 0.0, True, False), ("cap", 3.0, True, False),
+                                                      ("cap", 0.0, False, False), ("flat", 0.0, True, False),
+                                                      ("flat", 0.0, True, True), ("flat", 2.0, True, False)])
+def test_segmenting_keeps_dwell_points_on_the_path_and_the_chord_within_tolerance(tool_path, flat_path, part, radius,
+                                                                                  arcs, ends):
     from polishpath.export.blockfit import CCW, CW, LINE
 
-    post = get_post("linuxcnc", {"arcs": arcs})
+    tool_path = tool_path if part == "cap" else flat_path
+    post = get_post("linuxcnc", {"arcs": arcs, "dwell_block_ends": ends})
     blocks = post.segment_blocks(tool_path, radius)
     sp = tool_path.surface_path
-    tol = post.segment_tol(tool_path)  # the default: 1 % of the spacing (2 mm), over the smoothing stage's 5 um
-    assert tol == pytest.approx(0.02) and tool_path.provenance.params["chord_tol_mm"] == 0.005
+    tol = post.segment_tol(tool_path)  # the default: 1 % of the spacing, over the smoothing stage's chord tolerance
+    if part == "cap":
+        assert tol == pytest.approx(0.02) and tool_path.provenance.params["chord_tol_mm"] == 0.005
+    else:
+        assert tol == pytest.approx(0.005)
     assert len(blocks) == len(_pieces_of(tool_path))
     normals = sample_normals(tool_path)
-    worst, n_arcs, n_blocks = 0.0, 0, 0
-    for k, (P, T, U, kinds, ij) in enumerate(blocks):
+    worst, n_arcs, n_blocks, passed, passed_w = 0.0, 0, 0, 0, 0.0
+    for k, (P, T, U, kinds, ij, centres) in enumerate(blocks):
         a, b = sp.planar.pieces[k], sp.planar.pieces[k + 1]
         dw = sp.xyz[a:b] + radius * sp.normals[a:b]
-        # every dwell point is a block end, on the path to 1e-9 mm
-        assert max(np.linalg.norm(P - d, axis=1).min() for d in dw) <= 1e-9
+        du = tool_path.dwell_params[a:b]
         assert np.all(np.diff(U) > 0) and np.all(np.diff(T) > 0)
         assert set(kinds[1:]) <= ({LINE, CW, CCW} if arcs else {LINE})
         sa, sb = _pieces_of(tool_path)[k]
         assert len(P) < (sb - sa) + (b - a)  # merged: fewer block ends than samples + dwell points
         u, s = tool_path.sample_params[sa:sb], tool_path.samples[sa:sb] + radius * normals[sa:sb]
         W = np.round(P, 4) + 0.0  # as written
+        # every dwell point is a block end, or lies inside one block (at most one per block), on it to 1e-9 mm
+        at_end = np.isin(du, U)
+        blk = np.searchsorted(U, du, side="left")  # dwell point j inside block blk[j] (from U[blk-1] to U[blk])
+        if np.linalg.norm(P[-1] - dw[-1]) <= 1e-9:  # the piece ends at its last sample, at the last dwell point
+            at_end[-1], blk[-1] = True, len(P) - 1
+        assert np.all(np.abs(P[np.minimum(blk, len(P) - 1)][at_end] - dw[at_end]) <= 1e-9)
+        if ends:
+            assert at_end.all()
+        assert len(np.unique(blk[~at_end])) == np.count_nonzero(~at_end)
+        inner_dwell = dict(zip(blk[~at_end] - 1, np.flatnonzero(~at_end)))
         for i in range(len(P) - 1):
             inner = (u > U[i]) & (u < U[i + 1])
             n_blocks += 1
+            j = inner_dwell.get(i)
+            if j is not None:
+                passed += 1
+                turn = 0 if kinds[i + 1] == LINE else (1 if kinds[i + 1] == CCW else -1)
+                c = centres[i + 1]
+                # on the block before rounding (the helix about the fitted centre, Z linear along it) ...
+                assert _dist_same_angle(dw[j], P[i], P[i + 1], c, turn) <= 1e-9
+                # ... and on the block as written (ends and incremental centre rounded) within the resolution
+                d_w = _dist_same_angle(dw[j], W[i], W[i + 1], W[i, :2] + ij[i + 1], turn)
+                assert d_w <= 1e-4 + 1e-9
+                passed_w = max(passed_w, d_w)
             if not inner.any():
                 continue
             # the samples the block replaces and the curve at 1/4, 1/2, 3/4 between them (where the smoothing
             # stage checks its own chords) are within the tolerance of the block: a segment, or the helix
-            # through the block's start, middle and end points (XY arc, Z linear along it)
+            # about the fitted centre (XY arc through the block's start, middle point -- or the dwell point
+            # inside -- and end, Z linear along it)
             ui = np.concatenate([[U[i]], u[inner], [U[i + 1]]])
+            if j is not None:
+                ui = np.sort(np.concatenate([ui, [du[j]]]))
             uq = (ui[:-1, None] + np.array([0.25, 0.5, 0.75]) * np.diff(ui)[:, None]).ravel()
             q = np.vstack([s[inner], _driven_curve(tool_path, uq, radius)])
             if kinds[i + 1] == LINE:
+                assert np.isnan(centres[i + 1]).all()
                 worst = max(worst, _dist_to_segment(q, P[i], P[i + 1]).max())
                 continue
             n_arcs += 1
-            pts = np.vstack([P[i], s[inner], P[i + 1]])
-            centre, r, turn = _circle_through(pts[0], pts[(len(pts) - 1) // 2], pts[-1])
-            assert turn == (1 if kinds[i + 1] == CCW else -1)
+            turn = 1 if kinds[i + 1] == CCW else -1
+            if j is None:  # the circle through the start, the middle point and the end
+                pts = np.vstack([P[i], s[inner], P[i + 1]])
+                centre, r, tr = _circle_through(pts[0], pts[(len(pts) - 1) // 2], pts[-1])
+                assert tr == turn and np.allclose(centre, centres[i + 1], rtol=0, atol=1e-9 * max(1.0, r))
+            centre = centres[i + 1]
+            r = float(np.linalg.norm(P[i, :2] - centre))
+            assert abs(np.linalg.norm(P[i + 1, :2] - centre) - r) <= 1e-9 * max(1.0, r)
             worst = max(worst, _dist_to_move(q, P[i], P[i + 1], centre, turn).max())
             # the arc as written (ends and incremental centre at 0.1 um): LinuxCNC's radius rule well kept,
             # within one resolution (beyond the ends' own rounding) of the fitted arc
@@ -593,18 +653,29 @@ def test_segmenting_keeps_dwell_points_on_the_path_and_the_chord_within_toleranc
                                                                                        lam), axis=1)
             assert off.max() <= shift + 1e-4 + 1e-12
     assert 0.3 * tol < worst <= tol * (1 + 1e-9)
+    if part == "flat" and not ends and radius == 0:
+        # on a flat part blocks pass through dwell points: fewer blocks than with every dwell point a block end
+        assert passed > 0.2 * len(sp.xyz)
+        assert n_blocks < sum(len(x[0]) - 1 for x in get_post("linuxcnc", {"dwell_block_ends": True}).segment_blocks(
+            tool_path))
+    if ends:
+        assert passed == 0
     if arcs:
         assert n_arcs > 0  # the serpentine's turns
-        lines_only = get_post("linuxcnc", {"arcs": False}).segment_blocks(tool_path, radius)
-        assert n_blocks < sum(len(x[0]) - 1 for x in lines_only)
+        if part == "cap":
+            lines_only = get_post("linuxcnc", {"arcs": False}).segment_blocks(tool_path, radius)
+            assert n_blocks < sum(len(x[0]) - 1 for x in lines_only)
     else:
         assert n_arcs == 0
 
 
-@pytest.mark.parametrize("radius", [0.0, 3.0])
-def test_delivered_time_around_every_dwell_point_is_within_its_tolerance(tool_path, radius):
-    from gcode_helpers import delivered_region_times, points_at_params
+@pytest.mark.parametrize("part, radius", [("cap", 0.0), ("cap", 3.0), ("flat", 0.0), ("flat", 2.0)])
+def test_delivered_time_around_every_dwell_point_is_within_its_tolerance(tool_path, flat_path, part, radius):
+    """Each region's time as the controller derives it from the written blocks and F (rounded), dwell points at
+    block ends or (on the flat part) passed through on a block, by gcodeparser: within the time tolerance."""
+    from gcode_helpers import delivered_region_times, dwell_moves, points_at_params
 
+    tool_path = tool_path if part == "cap" else flat_path
     time_tol = 0.01
     text = _gcode(tool_path, tool_radius=radius)
     assert ("G93" in text) == (radius > 0)
@@ -618,25 +689,32 @@ def test_delivered_time_around_every_dwell_point_is_within_its_tolerance(tool_pa
         sa, sb = _pieces_of(tool_path)[k]
         # each region boundary where the schedule places it: on the sampled path, linear in the parameter
         bq = points_at_params(driven[sa:sb], tool_path.sample_params[sa:sb], rb[1:-1])
-        got = delivered_region_times(pts, t, sp.xyz[a:b] + radius * sp.normals[a:b], bq, centres=arcs[k][0],
-                                     turns=arcs[k][1])
+        dw = sp.xyz[a:b] + radius * sp.normals[a:b]
+        got = delivered_region_times(pts, t, dw, bq, centres=arcs[k][0], turns=arcs[k][1])
         rel = np.abs(got / sched - 1)
         assert rel.max() <= time_tol, rel.max()
         assert got.sum() == pytest.approx(sched.sum(), rel=FEED_RES)
+        # every dwell point on the path as the parser reads it, to the coordinate resolution
+        first, last, dist = dwell_moves(pts, dw, 2e-4, arcs[k][0], arcs[k][1])
+        assert dist.max() <= 1e-4
+        if part == "flat" and radius == 0:
+            assert np.count_nonzero(first == last) > 0.2 * len(dw)  # passed through on a block
 
 
-def test_modal_words_parse_back_with_both_parsers_to_the_same_points(tool_path):
-    for kw in ({}, {"tool_radius": 3.0}, {"segmenting": "period"}, {"arcs": False}):
-        text = _gcode(tool_path, **kw)
+def test_modal_words_parse_back_with_both_parsers_to_the_same_points(tool_path, flat_path):
+    cases = [(tool_path, kw) for kw in ({}, {"tool_radius": 3.0}, {"segmenting": "period"}, {"arcs": False})]
+    cases += [(flat_path, {}), (flat_path, {"dwell_block_ends": True})]
+    for tp, kw in cases:
+        text = _gcode(tp, **kw)
         a, b = moves_gcodeparser(text), moves_pygcode(text)
-        assert len(a.ends) == len(b.ends) > len(tool_path.surface_path.xyz)
+        assert len(a.ends) == len(b.ends) > (0.5 if tp is flat_path and not kw else 1) * len(tp.surface_path.xyz)
         assert np.array_equal(a.ends, b.ends) and np.array_equal(a.feed, b.feed)
         assert np.array_equal(a.inverse, b.inverse) and np.array_equal(a.rapid, b.rapid)
         assert np.array_equal(a.turns, b.turns) and np.array_equal(a.centres, b.centres, equal_nan=True)
-        assert (np.count_nonzero(a.turns) > 0) == (kw in ({}, {"tool_radius": 3.0}))
+        assert (np.count_nonzero(a.turns) > 0) == (kw.get("segmenting") != "period" and kw.get("arcs", True))
         # the blocks' end points are the unrounded segmenting's, to the coordinate resolution
         blocks = get_post("linuxcnc", {k: v for k, v in kw.items() if k != "tool_radius"}).segment_blocks(
-            tool_path, kw.get("tool_radius", 0.0))
+            tp, kw.get("tool_radius", 0.0))
         for (pts, *_), (P, *_) in zip(_path_runs(text), blocks):
             assert pts.shape == P.shape and np.abs(pts - P).max() <= RES
     # no path block repeats a word that did not change (I J are not modal: every arc has them); the motion
@@ -695,6 +773,17 @@ def test_bad_segmenting_settings_are_refused_by_name(bad, words):
 
 
 # --------------------------------------------------------------------------- streamed writers (issue 15, item 4)
+
+
+def test_chunked_flat_samples_write_the_same_bytes(flat_path):
+    """Blocks through dwell points wait for the interval after the dwell point: the same bytes whatever the chunks."""
+    from polishpath.export import sample_chunks
+
+    whole = _gcode(flat_path)
+    for size in (1, 7, 333):
+        buf = io.StringIO()
+        write_gcode(flat_path, buf, chunks=sample_chunks(flat_path, size))
+        assert buf.getvalue() == whole, size
 
 
 @pytest.mark.parametrize("post, kw", [("linuxcnc", {}), ("linuxcnc", {"tool_radius": 3.0}),

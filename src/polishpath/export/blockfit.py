@@ -1,8 +1,8 @@
 """Fitting G-code blocks to the machine samples: straight (G01) and helical-arc (G02/G03) blocks, compiled.
 
-Between two dwell points (each a block end) the segmenter looks for the
-fewest blocks, each a straight move or a helical arc (an XY arc in G17 with Z
-linear along it, as LinuxCNC and Fanuc run G02/G03 with a Z word), such that
+The segmenter looks for the fewest blocks, each a straight move or a helical
+arc (an XY arc in G17 with Z linear along it, as LinuxCNC and Fanuc run
+G02/G03 with a Z word), such that
 
 * **chord**: every sample the block replaces, and the curve at 1/4, 1/2, 3/4 of
   the parameter between each two of them, is within ``tol`` of the block *in
@@ -11,6 +11,11 @@ linear along it, as LinuxCNC and Fanuc run G02/G03 with a Z word), such that
 * **time**: the controller, moving uniformly along the block (a line's length,
   a helix's length, at the block's F) in the block's planned time, passes
   each region boundary inside the block within its limit of the schedule;
+* **dwell points**: each is a block end, or (``through``) the one dwell point
+  inside a block, on it to :data:`ON_PATH_MM` (1e-9 mm) before rounding and
+  within the resolution as written; an arc is then the circle through the
+  block's start, the dwell point and its end, and its helix must have the
+  dwell point's Z at the dwell point's angle (on a flat part it does);
 * **arc shape**: the XY arc through the block's start, middle and end points
   turns at most :data:`MAX_SWEEP`, its radius is between :data:`MIN_ARC_MM`
   and :data:`MAX_RADIUS_MM`, its XY chord at least :data:`MIN_ARC_MM`; written
@@ -35,8 +40,9 @@ polynomials.
 
 Each block's end is searched by bisection between its start and the next
 dwell point (the whole interval first; the fit is checked at the end found, so
-every block written fits): O(L log L) point checks for a dwell interval of L
-samples, not O(L^2).
+every block written fits), and a block that reaches the dwell point is
+extended through it towards the next the same way: O(L log L) point checks
+for a dwell interval of L samples, not O(L^2).
 
 Written by hand: this is the project's segmenting (no library fits G-code
 arcs under a time constraint).
@@ -49,8 +55,8 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["LINE", "CW", "CCW", "MAX_SWEEP", "MIN_ARC_MM", "MAX_RADIUS_MM", "RADIUS_MATCH_RES", "segment_intervals",
-           "written_arc_lengths", "CHECK_FRACTIONS", "NCOL"]
+__all__ = ["LINE", "CW", "CCW", "MAX_SWEEP", "MIN_ARC_MM", "MAX_RADIUS_MM", "RADIUS_MATCH_RES", "ON_PATH_MM",
+           "segment_intervals", "written_arc_lengths", "CHECK_FRACTIONS", "NCOL", "NBCOL"]
 
 #: block kinds: the G word of the block
 LINE, CW, CCW = 1, 2, 3
@@ -60,6 +66,9 @@ MAX_SWEEP = 1.5 * math.pi
 MIN_ARC_MM = 0.01
 #: largest arc radius, mm (a flatter arc is within the tolerance of a line, written as one)
 MAX_RADIUS_MM = 1000.0
+#: largest radius of an arc through a dwell point, mm: a nearly straight stretch through it (a line passes a
+#: dwell point only where the curve is straight to 1e-9 mm)
+MAX_THROUGH_RADIUS_MM = 1e5
 #: most the written radii to the start and the end may differ, in coordinate resolutions
 RADIUS_MATCH_RES = 2.0
 #: where between two points the curve is checked against a block (as the smoothing stage checks its chords)
@@ -110,9 +119,13 @@ def _fast_atan2(y, x):  # pragma: no cover - numba
 #: at the interval's check fractions (3 x 3)
 PX, WX, TT, UU, BFRAC, BTIME, BLIM, MX = 0, 3, 6, 7, 8, 9, 10, 11
 NCOL = 20
-#: B columns: the point must end a block, the point is an inserted dwell point (not a sample), the
-#: interval's check points are evaluated
-MUST, INS, MDONE = 0, 1, 2
+#: B columns: the point must end a block (a dwell point, or the piece's end: the search stops there), the
+#: point is an inserted dwell point (not a sample), the interval's check points are evaluated, the point is a
+#: dwell point (which a block may pass through where it lies on the block)
+MUST, INS, MDONE, DWELL = 0, 1, 2, 3
+NBCOL = 4
+#: how near a dwell point a block passing through it must come (before rounding), mm
+ON_PATH_MM = 1e-9
 
 
 @numba.njit(cache=True)
@@ -227,9 +240,14 @@ def _bounded(B, i):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, inline="always")
-def _line_fits(F, B, s, c, tol, e_s):  # pragma: no cover - numba
+def _line_fits(F, B, s, c, tol, e_s, dw):  # pragma: no cover - numba
     """1: one straight block P[s]-P[c] holds the chord and time limits; 0: not; -(i + 1): interval i's
-    check points are needed first."""
+    check points are needed first. ``dw`` >= 0: the dwell point P[dw] inside the block must lie on it
+    (within :data:`ON_PATH_MM`)."""
+    if dw >= 0:
+        dd, _ = _seg_dist(F[dw, 0], F[dw, 1], F[dw, 2], F, s, c)
+        if dd > ON_PATH_MM:
+            return 0
     d_prev = 0.0
     for i in range(s, c):
         d_next = 0.0
@@ -305,9 +323,9 @@ def _sweep(sgn, ax, ay, bx, by):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True)
-def _circle(F, s, c):  # pragma: no cover - numba
-    """The XY circle through P[s], P[(s+c)//2], P[c]: (ok, centre x, y, radius, direction, sweep)."""
-    m = (s + c) // 2
+def _circle(F, s, c, m, through_dwell):  # pragma: no cover - numba
+    """The XY circle through P[s], P[m], P[c]: (ok, centre x, y, radius, direction, sweep); ``through_dwell``
+    (1: P[m] is a dwell point) allows radii up to :data:`MAX_THROUGH_RADIUS_MM`."""
     ax, ay = F[s, 0], F[s, 1]
     bx, by = F[m, 0] - ax, F[m, 1] - ay
     cx, cy = F[c, 0] - ax, F[c, 1] - ay
@@ -321,7 +339,7 @@ def _circle(F, s, c):  # pragma: no cover - numba
     ux = (cy * b2 - by * c2) / den
     uy = (bx * c2 - cx * b2) / den
     R = math.sqrt(ux * ux + uy * uy)
-    if not (MIN_ARC_MM <= R <= MAX_RADIUS_MM):
+    if not (MIN_ARC_MM <= R <= (MAX_RADIUS_MM if through_dwell == 0 else MAX_THROUGH_RADIUS_MM)):
         return False, 0.0, 0.0, 0.0, 0.0, 0.0
     sgn = 1.0 if den > 0.0 else -1.0  # a left turn start -> middle -> end runs counter-clockwise
     ox, oy = ax + ux, ay + uy
@@ -332,11 +350,13 @@ def _circle(F, s, c):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True)
-def _written_arc(F, s, c, ox, oy, R, sgn, D, res):  # pragma: no cover - numba
+def _written_arc(F, s, c, ox, oy, R, sgn, D, res, dw):  # pragma: no cover - numba
     """The arc as written (end points and incremental centre at the resolution ``res``): (ok, I, J).
 
     ok: its radii to start and end differ by at most RADIUS_MATCH_RES resolutions and it is within one
-    resolution (beyond the end points' own rounding) of the fitted arc at 1/4, 1/2, 3/4 of it."""
+    resolution (beyond the end points' own rounding) of the fitted arc at 1/4, 1/2, 3/4 of it; and, with a
+    dwell point P[dw] inside it (``dw`` >= 0), the written helix passes within one resolution of it (at the
+    dwell point's fraction of the arc)."""
     sc = 1.0 / res
     Iw = np.rint((ox - F[s, WX]) * sc) / sc
     Jw = np.rint((oy - F[s, WX + 1]) * sc) / sc
@@ -365,25 +385,44 @@ def _written_arc(F, s, c, ox, oy, R, sgn, D, res):  # pragma: no cover - numba
         e2 = F[s, WX + 2] + lam * (F[c, WX + 2] - F[s, WX + 2]) - (z0 + lam * dz)
         if math.sqrt(e0 * e0 + e1 * e1 + e2 * e2) > shift + res:
             return False, Iw, Jw
+    if dw >= 0:
+        lam = _sweep(sgn, F[s, 0] - ox, F[s, 1] - oy, F[dw, 0] - ox, F[dw, 1] - oy) / D
+        tw = thw + sgn * lam * Dw
+        rw = rs + lam * (re - rs)
+        e0 = wox + rw * math.cos(tw) - F[dw, 0]
+        e1 = woy + rw * math.sin(tw) - F[dw, 1]
+        e2 = F[s, WX + 2] + lam * (F[c, WX + 2] - F[s, WX + 2]) - F[dw, 2]
+        if math.sqrt(e0 * e0 + e1 * e1 + e2 * e2) > res:
+            return False, Iw, Jw
     return True, Iw, Jw
 
 
 @numba.njit(cache=True, inline="always")
-def _arc_fits(F, B, s, c, tol, e_s, res, rounding):  # pragma: no cover - numba
+def _arc_fits(F, B, s, c, tol, e_s, res, rounding, dw):  # pragma: no cover - numba
     """As :func:`_line_fits` for one helical arc through P[s], P[(s+c)//2], P[c]: (result, kind, I, J).
 
-    ``rounding``: also check the arc as written (:func:`_written_arc`); the search leaves it to the end."""
-    ok, ox, oy, R, sgn, D = _circle(F, s, c)
+    ``dw`` >= 0: through P[s], the dwell point P[dw] inside the block and P[c] instead, and the helix (Z
+    linear along the arc) must pass the dwell point within :data:`ON_PATH_MM`. ``rounding``: also check the
+    arc as written (:func:`_written_arc`); the search leaves it to the end."""
+    ok, ox, oy, R, sgn, D = _circle(F, s, c, dw if dw >= 0 else (s + c) // 2, 1 if dw >= 0 else 0)
     if not ok:
         return 0, LINE, 0.0, 0.0
-    Iw, Jw = 0.0, 0.0
-    if rounding:
-        ok, Iw, Jw = _written_arc(F, s, c, ox, oy, R, sgn, D, res)
-        if not ok:
-            return 0, LINE, 0.0, 0.0
     vsx, vsy = F[s, 0] - ox, F[s, 1] - oy
     z0 = F[s, 2]
     dz = F[c, 2] - z0
+    if dw >= 0:  # the helix at the dwell point's angle (exact atan2): its XY is on the circle by construction
+        lam = _sweep(sgn, vsx, vsy, F[dw, 0] - ox, F[dw, 1] - oy) / D
+        if lam > 1.0:
+            return 0, LINE, 0.0, 0.0
+        er = math.sqrt((F[dw, 0] - ox) ** 2 + (F[dw, 1] - oy) ** 2) - R
+        ez = z0 + lam * dz - F[dw, 2]
+        if math.sqrt(er * er + ez * ez) > ON_PATH_MM:
+            return 0, LINE, 0.0, 0.0
+    Iw, Jw = 0.0, 0.0
+    if rounding:
+        ok, Iw, Jw = _written_arc(F, s, c, ox, oy, R, sgn, D, res, dw)
+        if not ok:
+            return 0, LINE, 0.0, 0.0
     # every replaced sample, the check points, the region boundaries
     d_prev = 0.0
     l_prev = 0.0
@@ -420,16 +459,52 @@ def _arc_fits(F, B, s, c, tol, e_s, res, rounding):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, inline="always")
-def _fits(F, B, s, c, tol, e_s, res, arcs, rounding):  # pragma: no cover - numba
-    """A line, else an arc (when ``arcs``) from P[s] to P[c]: (result, kind, I, J) as :func:`_arc_fits`."""
-    r = _line_fits(F, B, s, c, tol, e_s)
+def _fits(F, B, s, c, tol, e_s, res, arcs, rounding, dw):  # pragma: no cover - numba
+    """A line, else an arc (when ``arcs``) from P[s] to P[c]: (result, kind, I, J) as :func:`_arc_fits`
+    (``dw`` >= 0: the dwell point inside the block, on it)."""
+    r = _line_fits(F, B, s, c, tol, e_s, dw)
     if r != 0 or not arcs or c - s < 2:
         return r, LINE, 0.0, 0.0
-    return _arc_fits(F, B, s, c, tol, e_s, res, rounding)
+    return _arc_fits(F, B, s, c, tol, e_s, res, rounding, dw)
 
 
 @numba.njit(cache=True)
-def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final):  # pragma: no cover - numba
+def _farthest(F, B, s, lo0, k0, i0, j0, e, dw, breaks, coeffs, dp, dn, radius, span, tol, e_s, res,
+              arcs):  # pragma: no cover - numba
+    """The farthest block end c in (lo0, e] from P[s] (c = e tried first, then bisection; P[lo0] is known to
+    fit, as kind k0 with centre (i0, j0)): (end, kind, I, J, span). ``dw`` >= 0: a dwell point the blocks
+    beyond it pass through. The arc as written (its rounding) is checked at the end found; where it is off
+    (rarely), the search runs again with it."""
+    lo, kind, gi, gj = lo0, k0, i0, j0
+    for attempt in range(2):
+        rounding = attempt == 1
+        lo, kind, gi, gj = lo0, k0, i0, j0
+        hi = e + 1
+        c = e if lo0 < e else -1
+        while c > 0:
+            inside = dw if (dw >= 0 and c > dw) else -1
+            r, k, fi, fj = _fits(F, B, s, c, tol, e_s, res, arcs, rounding, inside)
+            while r < 0:  # evaluate the check points the fit needs, then fit again
+                span = _check_points(F, B, -r - 1, breaks, coeffs, dp, dn, radius, span)
+                r, k, fi, fj = _fits(F, B, s, c, tol, e_s, res, arcs, rounding, inside)
+            if r == 1:
+                lo = c
+                kind, gi, gj = k, fi, fj
+            else:
+                hi = c
+            c = (lo + hi) // 2 if hi - lo > 1 else -1
+        if kind == LINE or rounding or lo == lo0:
+            break
+        inside = dw if (dw >= 0 and lo > dw) else -1
+        ok, ox, oy, R, sgn, D = _circle(F, s, lo, inside if inside >= 0 else (s + lo) // 2, 1 if inside >= 0 else 0)
+        ok, gi, gj = _written_arc(F, s, lo, ox, oy, R, sgn, D, res, inside)
+        if ok:
+            break
+    return lo, kind, gi, gj, span
+
+
+@numba.njit(cache=True)
+def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final, through):  # pragma: no cover - numba
     """Blocks of every complete dwell interval of the buffer, fewest first (see the module docstring).
 
     Parameters
@@ -440,9 +515,9 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final):
         parameter; of the interval to the next point: the region boundary inside it as the interval's
         fraction (NaN: none), its planned time (s), how far a block may move it (s), and the curve at its
         check fractions (filled where needed). ``P[0]`` is a block end.
-    B : (n, 3) bool
-        Per point: it ends a block (dwell points, the piece's last point); it is an inserted dwell point;
-        the interval's check points are evaluated.
+    B : (n, NBCOL) bool
+        Per point: the search stops there (dwell points, the piece's last point); it is an inserted dwell
+        point; the interval's check points are evaluated; it is a dwell point.
     curve : tuple
         ``(breaks, coeffs, dwell_params, dwell_normals)``: the curve's span polynomials
         (``smooth.nurbs.span_polynomials``, homogeneous) and every dwell parameter and normal (the
@@ -458,6 +533,11 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final):
         Intervals ``0 .. horizon-1`` are complete (later boundary limits are not known yet).
     final : bool
         Whether ``P[-1]`` is the piece's last point.
+    through : bool
+        Whether a block may pass through a dwell point (one per block) that lies on it: a block that
+        reaches the next dwell point is extended towards the one after while it fits with the dwell point
+        on it (:data:`ON_PATH_MM`; an arc is then the circle through its start, the dwell point and its
+        end). False: every dwell point ends a block.
 
     Returns
     -------
@@ -468,64 +548,55 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final):
         :data:`LINE`, :data:`CW` or :data:`CCW`.
     ij : (k, 2) float64
         An arc's incremental centre from its (rounded) start, rounded to the resolution, mm.
+    centres : (k, 2) float64
+        An arc's fitted centre (before rounding; NaN: a line), mm.
     """
     breaks, coeffs, dp, dn = curve
     n = F.shape[0]
     ends = np.empty(n, np.int64)
     kinds = np.empty(n, np.int64)
     ij = np.zeros((n, 2))
+    centres = np.full((n, 2), np.nan)
     span = -1
     ne = 0
-    a = 0
-    while a < n - 1:
-        e = a + 1
+    s = 0
+    while s < n - 1:
+        e = s + 1
         while e < n - 1 and not B[e, MUST]:
             e += 1
         if not B[e, MUST] or e > horizon:
             break  # the interval is not complete yet
+        e2 = -1
+        if through and B[e, DWELL] and e < n - 1:
+            e2 = e + 1
+            while e2 < n - 1 and not B[e2, MUST]:
+                e2 += 1
+            if not B[e2, MUST] or e2 > horizon:
+                break  # a block may pass the dwell point e: wait until the interval after it is complete
         # check points no bound can spare: intervals beside an inserted point, or a bound never below tol
-        for i in range(a, e):
+        for i in range(s, e2 if e2 > 0 else e):
             if not B[i, MDONE] and (not _bounded(B, i) or not e_s < tol):
                 span = _check_points(F, B, i, breaks, coeffs, dp, dn, radius, span)
-        s = a
-        while s < e:
-            # the block's end: the dwell point e if one block reaches it, else bisection between the
-            # always-kept s+1 (or the last fit) and the first misfit (fewer fits than galloping up from s+2,
-            # blocks being a third to a half of a dwell interval). The arc as written (its rounding) is
-            # checked at the end found; where it is off (rarely), the search runs again with it.
-            lo = s + 1
-            kind, gi, gj = LINE, 0.0, 0.0
-            for attempt in range(2):
-                rounding = attempt == 1
-                lo = s + 1
-                hi = e + 1
-                kind, gi, gj = LINE, 0.0, 0.0
-                c = e if s + 1 < e else -1
-                while c > 0:
-                    r, k, fi, fj = _fits(F, B, s, c, tol, e_s, res, arcs, rounding)
-                    while r < 0:  # evaluate the check points the fit needs, then fit again
-                        span = _check_points(F, B, -r - 1, breaks, coeffs, dp, dn, radius, span)
-                        r, k, fi, fj = _fits(F, B, s, c, tol, e_s, res, arcs, rounding)
-                    if r == 1:
-                        lo = c
-                        kind, gi, gj = k, fi, fj
-                    else:
-                        hi = c
-                    c = (lo + hi) // 2 if hi - lo > 1 else -1
-                if kind == LINE or rounding:
-                    break
-                ok, ox, oy, R, sgn, D = _circle(F, s, lo)
-                ok, gi, gj = _written_arc(F, s, lo, ox, oy, R, sgn, D, res)
-                if ok:
-                    break
-            ends[ne] = lo
-            kinds[ne] = kind
-            ij[ne, 0] = gi
-            ij[ne, 1] = gj
-            ne += 1
-            s = lo
-        a = e
-    return ends[:ne], kinds[:ne], ij[:ne]
+        # the block's end: the dwell point e if one block reaches it, else bisection between the always-kept
+        # s+1 and the first misfit (fewer fits than galloping up from s+2, blocks being a third to a half of
+        # a dwell interval); reaching e, the block is extended through it towards e2 the same way
+        lo, kind, gi, gj, span = _farthest(F, B, s, s + 1, LINE, 0.0, 0.0, e, -1, breaks, coeffs, dp, dn, radius,
+                                           span, tol, e_s, res, arcs)
+        if lo == e and e2 > 0:
+            lo, kind, gi, gj, span = _farthest(F, B, s, e, kind, gi, gj, e2, e, breaks, coeffs, dp, dn, radius,
+                                               span, tol, e_s, res, arcs)
+        ends[ne] = lo
+        kinds[ne] = kind
+        ij[ne, 0] = gi
+        ij[ne, 1] = gj
+        if kind != LINE:  # the fitted (unrounded) centre, for checks
+            inside = e if (e2 > 0 and lo > e) else -1
+            ok, ox, oy, R, sgn, D = _circle(F, s, lo, inside if inside >= 0 else (s + lo) // 2, 1 if inside >= 0 else 0)
+            centres[ne, 0] = ox
+            centres[ne, 1] = oy
+        ne += 1
+        s = lo
+    return ends[:ne], kinds[:ne], ij[:ne], centres[:ne]
 
 
 @numba.njit(cache=True)

@@ -16,8 +16,10 @@ so consecutive samples are merged into one block while
     boundary within ``limit`` seconds of the schedule; ``limit`` is half the
     time tolerance of the shorter of the two regions, so each region's time
     (the difference of its two boundary times) stays within its tolerance;
-(c) **dwell points**: every dwell point is a block end (inserted between the
-    samples at its curve parameter, exactly the dwell point).
+(c) **dwell points**: every dwell point is on the path (inserted between the
+    samples at its curve parameter, exactly the dwell point): a block end, or
+    (unless ``dwell_block_ends``) the one dwell point inside a block that lies
+    on it to 1e-9 mm (:mod:`.blockfit`).
 
 The fit itself (lines, arcs, the search for the fewest blocks per dwell
 interval) is :mod:`polishpath.export.blockfit`. The planned time is linear in
@@ -40,7 +42,8 @@ import math
 import numba
 import numpy as np
 
-from .blockfit import BFRAC, BLIM, BTIME, CHECK_FRACTIONS, INS, MDONE, MUST, NCOL, PX, TT, UU, WX, segment_intervals
+from .blockfit import (BFRAC, BLIM, BTIME, CHECK_FRACTIONS, DWELL, INS, MDONE, MUST, NBCOL, NCOL, PX, TT, UU, WX,
+                       segment_intervals)
 
 __all__ = ["PieceSegmenter", "CHECK_FRACTIONS", "merge_dwell_points"]
 
@@ -52,7 +55,7 @@ def merge_dwell_points(F0, B0, contact, driven, params, feed, last_contact, dwel
 
     Parameters
     ----------
-    F0, B0 : (n0, NCOL) float64 and (n0, 3) bool
+    F0, B0 : (n0, NCOL) float64 and (n0, NBCOL) bool
         The points kept from before (the open dwell interval; see :mod:`.blockfit` for the columns).
     contact, driven : (m, 3) float64
         Contact points (for the times) and driven points (written) of the chunk's samples, mm.
@@ -69,7 +72,7 @@ def merge_dwell_points(F0, B0, contact, driven, params, feed, last_contact, dwel
 
     Returns
     -------
-    F, B : (n0 + m', NCOL) and (n0 + m', 3)
+    F, B : (n0 + m', NCOL) and (n0 + m', NBCOL)
         Every column set but the region boundaries' (BFRAC NaN, BTIME and BLIM 0); a dwell point at a
         sample's parameter marks that sample (or the previous point) as a block end.
     j1 : int
@@ -84,7 +87,7 @@ def merge_dwell_points(F0, B0, contact, driven, params, feed, last_contact, dwel
             j1 += 1
     cap = n0 + m + (j1 - j0)
     F = np.empty((cap, NCOL))
-    B = np.zeros((cap, 3), np.bool_)
+    B = np.zeros((cap, NBCOL), np.bool_)
     F[:n0] = F0
     B[:n0] = B0
     has_prev = n0 > 0
@@ -109,12 +112,14 @@ def merge_dwell_points(F0, B0, contact, driven, params, feed, last_contact, dwel
                 here = True  # a sample at the dwell parameter (or the piece's first point) marks it
             elif i == 0 and d <= ua:
                 B[n0 - 1, MUST] = True
+                B[n0 - 1, DWELL] = True
             else:
                 f = (d - ua) / (params[i] - ua)
                 _put(F, B, o, dwell_pts[j - 1, 0], dwell_pts[j - 1, 1], dwell_pts[j - 1, 2], ta + f * (t - ta), d,
                      True, True, scale)
                 o += 1
         _put(F, B, o, driven[i, 0], driven[i, 1], driven[i, 2], t, params[i], here, False, scale)
+        B[o, DWELL] = here and (i > 0 or has_prev)  # a dwell point at a sample (not the piece's first point)
         o += 1
         ua, ta = params[i], t
     return F[:o], B[:o], j1
@@ -136,6 +141,7 @@ def _put(F, B, o, x, y, z, t, u, must, inserted, scale):  # pragma: no cover - n
     B[o, MUST] = must
     B[o, INS] = inserted
     B[o, MDONE] = False
+    B[o, DWELL] = inserted
 
 
 class PieceSegmenter:
@@ -166,16 +172,22 @@ class PieceSegmenter:
     smooth_tol_mm : float or None
         The smoothing stage's chord tolerance: the curve between two of its samples is within it of their
         chord at the check fractions (None, or a tool radius: not known, every check point is evaluated).
+    dwell_block_ends : bool
+        True: every dwell point ends a block. False (default): a block may pass through a dwell point that
+        lies on it to :data:`~polishpath.export.blockfit.ON_PATH_MM` (1e-9 mm) before rounding and within
+        the coordinate resolution as written (:mod:`.blockfit`).
     """
 
     def __init__(self, dwell_params, dwell_points, curve, chord_tol_mm: float, time_tol: float, merge: bool = True,
-                 arcs: bool = False, resolution_mm: float = 1e-4, smooth_tol_mm: float | None = None):
+                 arcs: bool = False, resolution_mm: float = 1e-4, smooth_tol_mm: float | None = None,
+                 dwell_block_ends: bool = True):
         self.dp = np.ascontiguousarray(dwell_params, dtype=np.float64)
         self.dpts = np.ascontiguousarray(dwell_points, dtype=np.float64)
         self.bu = 0.5 * (self.dp[1:] + self.dp[:-1])  # region boundaries inside the piece
         self.curve, self.radius = tuple(curve[:4]), float(curve[4])
         self.tol, self.time_tol, self.merge = float(chord_tol_mm), float(time_tol), bool(merge)
         self.arcs, self.res = bool(arcs) and self.merge, float(resolution_mm)
+        self.through = self.merge and not dwell_block_ends
         self.decimals = int(round(-math.log10(self.res)))
         self.e_s = (float(smooth_tol_mm) * (1 + 1e-6) + 1e-12) if smooth_tol_mm and self.radius == 0 else math.inf
         self.next_dwell = 0
@@ -186,12 +198,13 @@ class PieceSegmenter:
         self.n_lim = 0
         self.last_contact = np.zeros(3)
         self.F = np.zeros((0, NCOL))  # per point: see blockfit (driven point, as written, time, parameter, ...)
-        self.B = np.zeros((0, 3), bool)  # per point: must end a block, inserted, check points evaluated
+        self.B = np.zeros((0, NBCOL), bool)  # per point: a block end, inserted, check points evaluated, a dwell point
         self.bidx = np.zeros(0, np.int64)  # per interval (row of its first point): the boundary in it (-1: none)
 
     # ------------------------------------------------------------------ samples in
     def add(self, contact: np.ndarray, driven: np.ndarray, params: np.ndarray, feed_mm_min: np.ndarray):
-        """Take the next samples of the piece; returns the block ends now final: (points, times, params, kinds, ij)."""
+        """Take the next samples of the piece; returns the block ends now final: (points, times, params, kinds, ij,
+        centres) (centres: an arc's fitted centre before rounding, NaN for a line)."""
         contact = np.ascontiguousarray(contact, dtype=np.float64)
         if len(contact) == 0:
             return self._empty()
@@ -218,7 +231,7 @@ class PieceSegmenter:
     # ------------------------------------------------------------------ internals
     @staticmethod
     def _empty():
-        return np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 2))
+        return np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 2))
 
     def _boundaries(self, n0: int):
         """Place the region boundaries in the intervals from point n0 - 1 on (fraction, planned time)."""
@@ -265,12 +278,12 @@ class PieceSegmenter:
             self.F[:, BLIM] = blim
             unknown = np.flatnonzero(np.isnan(blim[:-1]))
             horizon = int(unknown[0]) if len(unknown) else n - 1
-            ends, kinds, ij = segment_intervals(self.F, self.B, self.curve, float(self.radius), self.tol, self.e_s,
-                                                self.res, self.arcs, horizon, final)
+            ends, kinds, ij, centres = segment_intervals(self.F, self.B, self.curve, float(self.radius), self.tol,
+                                                         self.e_s, self.res, self.arcs, horizon, final, self.through)
         else:
             ends = np.arange(1, n, dtype=np.int64)
-            kinds, ij = np.ones(n - 1, np.int64), np.zeros((n - 1, 2))
-        out = self.F[ends, PX:PX + 3], self.F[ends, TT], self.F[ends, UU], kinds, ij
+            kinds, ij, centres = np.ones(n - 1, np.int64), np.zeros((n - 1, 2)), np.full((n - 1, 2), np.nan)
+        out = self.F[ends, PX:PX + 3], self.F[ends, TT], self.F[ends, UU], kinds, ij, centres
         last = int(ends[-1]) if len(ends) else 0
         if final:
             last = n - 1

@@ -111,6 +111,11 @@ class PostSettings:
         With ``chord`` segmenting: helical arcs (G02/G03 in G17, Z linear along
         them, centre as incremental I J) where one fits, else G01 (default: true);
         false: G01 only.
+    dwell_block_ends : bool
+        With ``chord`` segmenting: true ends a block at every dwell point; false (default) lets a block
+        pass through a dwell point that lies on it (1e-9 mm before rounding, within the coordinate
+        resolution as written: an arc through its start, the dwell point and its end, Z linear along it),
+        so a block may run from one region boundary to the next.
     chord_tol_mm : float or None
         Largest distance of the smooth curve from a merged block, mm; None (default):
         :data:`SEGMENT_TOL_OF_SPACING` (1 %) of the dwell-point spacing on the part
@@ -147,6 +152,7 @@ class PostSettings:
     integer_point: bool = False
     segmenting: str = "chord"
     arcs: bool = True
+    dwell_block_ends: bool = False
     chord_tol_mm: float | None = None
     time_tol: float = 0.01
     feed_resolution: float = 0.001
@@ -215,8 +221,9 @@ class PostSettings:
                                                 not isinstance(self.program_number, int) or
                                                 not 1 <= self.program_number <= 9999):
             raise ParameterError(f"{where}: program_number must be 1..9999, got {self.program_number!r}.")
-        if not isinstance(self.arcs, bool):
-            raise ParameterError(f"{where}: arcs must be true or false, got {self.arcs!r}.")
+        for name in ("arcs", "dwell_block_ends"):
+            if not isinstance(getattr(self, name), bool):
+                raise ParameterError(f"{where}: {name} must be true or false, got {getattr(self, name)!r}.")
         if not isinstance(self.comments, bool):
             raise ParameterError(f"{where}: comments must be true or false, got {self.comments!r}.")
 
@@ -407,7 +414,8 @@ class GcodePost(PostProcessor):
         seg = PieceSegmenter(tool_path.dwell_params[a:b], dpts, ctx["curve_polys"] + (float(tool_radius),),
                              ctx["segment_tol_mm"], s.time_tol - self.feed_share(inverse),
                              merge=s.segmenting == "chord", arcs=self.uses_arcs(), resolution_mm=10.0 ** -s.decimals,
-                             smooth_tol_mm=tool_path.provenance.params.get("chord_tol_mm"))
+                             smooth_tol_mm=tool_path.provenance.params.get("chord_tol_mm"),
+                             dwell_block_ends=s.dwell_block_ends)
         return BlockMotion(seg, write, decimals=s.decimals, feed_decimals=s.feed_decimals, inverse_time=inverse,
                            feed_resolution=s.feed_resolution, feed_in_force=self.approach_feed_written(),
                            sep=s.word_separator, styles=self.styles())
@@ -429,10 +437,11 @@ class GcodePost(PostProcessor):
     def segment_blocks(self, tool_path: ToolPath, tool_radius: float = 0.0,
                        chunks: Iterable[SampleChunk] | None = None) -> list[tuple[np.ndarray, ...]]:
         """The blocks before rounding, per piece: (points (k, 3) mm, planned times (k,) s, params (k,), kinds (k,),
-        ij (k, 2) mm).
+        ij (k, 2) mm, centres (k, 2) mm).
 
         ``kinds``: :data:`~polishpath.export.blockfit.LINE`, ``CW`` or ``CCW``; ``ij``: an arc's centre from
-        its rounded start, rounded (as written). The piece's first point (the approach's end, kind 0) first,
+        its rounded start, rounded (as written); ``centres``: an arc's fitted centre (before rounding; NaN: a
+        line). The piece's first point (the approach's end, kind 0) first,
         then every block end, as
         :meth:`write` segments them (for checks and benchmarks; the file rounds them).
         """
@@ -453,7 +462,8 @@ class GcodePost(PostProcessor):
             if starts:
                 close()
                 seg = self.motion(tool_path, c.piece, None, feed_mode, "linear", float(tool_radius), ctx).seg
-                parts = [(pts[:1], np.zeros(1), c.sample_params[:1], np.zeros(1, np.int64), np.zeros((1, 2)))]
+                parts = [(pts[:1], np.zeros(1), c.sample_params[:1], np.zeros(1, np.int64), np.zeros((1, 2)),
+                          np.full((1, 2), np.nan))]
             parts.append(seg.add(c.samples, pts, c.sample_params, c.feed_mm_min))
         close()
         return out
@@ -486,7 +496,7 @@ class GcodePost(PostProcessor):
             hdr += [("segmenting", s.segmenting)]
             if s.segmenting == "chord":
                 hdr += [("segment_chord_tol_mm", ctx["segment_tol_mm"]), ("segment_time_tol", s.time_tol),
-                        ("arcs", self.uses_arcs())]
+                        ("arcs", self.uses_arcs()), ("dwell_block_ends", s.dwell_block_ends)]
             if feed_mode != "inverse-time":
                 hdr += [("feed_resolution", s.feed_resolution)]
         lines = [_comment(f"{k}: {v}") for k, v in hdr]

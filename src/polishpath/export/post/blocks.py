@@ -2,8 +2,8 @@
 
 The piece's samples arrive chunk by chunk (:class:`~polishpath.export.chunks.SampleChunk`);
 :class:`~polishpath.export.segment.PieceSegmenter` turns them into block ends
-(chord-tolerance segmenting, every dwell point a block end; lines, or arcs with
-their incremental centre), and this module writes them as modal blocks:
+(chord-tolerance segmenting, every dwell point a block end or on a block; lines, or
+arcs with their incremental centre), and this module writes them as modal blocks:
 
 * coordinates rounded to ``decimals`` (4: 0.1 um); a straight block whose
   written point equals the previous one is merged into the next (its time goes
@@ -140,7 +140,8 @@ class BlockMotion:
             self.held = None
         return self.seconds, self.blocks
 
-    def _ends(self, P: np.ndarray, T: np.ndarray, U: np.ndarray, kinds: np.ndarray, ij: np.ndarray) -> None:
+    def _ends(self, P: np.ndarray, T: np.ndarray, U: np.ndarray, kinds: np.ndarray, ij: np.ndarray,
+              centres: np.ndarray | None = None) -> None:
         if len(P) == 0:
             return
         W = np.round(P, self.d) + 0.0
