@@ -74,7 +74,7 @@ class Moves:
         return helix_lengths(self.starts, self.ends, self.centres, self.turns)
 
     def times(self) -> np.ndarray:
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):  # rapid moves: F 0
             return np.where(self.inverse, 60.0 / self.feed, 60.0 * self.lengths() / self.feed)
 
     def runs(self) -> list[np.ndarray]:
