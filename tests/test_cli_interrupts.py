@@ -80,3 +80,31 @@ def test_the_guard_puts_back_the_hook_it_replaced():
             raise ValueError("boom")  # the guard reports it as an internal error (typer.Exit)
     assert sys.unraisablehook is before
     assert signal.getsignal(signal.SIGTERM) is not _common._raise_on_signal
+
+
+_EARLY_CHILD = r"""
+import signal, sys
+import polishpath.cli as c
+from polishpath.cli import _common
+
+real = _common._handle_signals
+
+def lands_while_installing():
+    # the SIGTERM handler is in place and the signal arrives before the next line runs
+    signal.signal(signal.SIGTERM, _common._raise_on_signal)
+    signal.raise_signal(signal.SIGTERM)
+    return real()
+
+c._handle_signals = lands_while_installing
+sys.argv = ["polishpath", "surfaces"]
+c.main()
+"""
+
+
+def test_a_signal_while_the_handlers_are_installed_is_a_clean_exit():
+    """A SIGTERM that lands while main() installs its handlers ends with exit 143 and a message, not a traceback
+    (it used to escape main() from before its try: tests/test_output_folders.py's SIGTERM at 0 s saw it under load)."""
+    env = {**os.environ, "PYTHONPATH": str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    r = subprocess.run([sys.executable, "-c", _EARLY_CHILD], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 143, r.stderr
+    assert "terminated (SIGTERM)" in r.stderr and "Traceback" not in r.stderr, r.stderr

@@ -18,8 +18,9 @@ from ._common import _handle_signals, _interrupt_message, app
 
 def main() -> None:
     """Console-script entry point."""
-    _handle_signals()
     try:
+        # inside the try: a signal that lands while the handlers are being installed raises here too
+        _handle_signals()
         app()
     except BrokenPipeError:  # pragma: no cover - output closed while typer printed help
         with contextlib.suppress(OSError):
