@@ -300,7 +300,8 @@ def smooth(
         :func:`iter_sample_chunks` regenerates the samples from
         ``ToolPath.schedule``.
     chunk_samples : int
-        Samples per chunk without ``keep_samples`` (memory is bounded by it).
+        Samples per chunk without ``keep_samples`` (memory is bounded by it; the Taylor kernel's chunks
+        may hold up to 4,096 samples more, as it ends a chunk between dwell regions).
 
     Returns
     -------

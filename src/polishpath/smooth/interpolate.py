@@ -264,7 +264,8 @@ def interpolate_constant_period(
         and every figure is accumulated chunk by chunk (the same figures;
         ``samples`` / ``params`` / ``feed_mm_min`` come back empty).
     chunk_samples : int
-        Samples per chunk without ``keep_samples``.
+        Samples per chunk without ``keep_samples`` (the Taylor kernel's up to
+        :data:`.taylor.RERUN_MAX_SAMPLES` more).
     chunk_check : callable, optional
         A factory of a further check of the samples: ``chunk_check()`` returns a
         callable that is given each chunk's points (m, 3) in order (one per

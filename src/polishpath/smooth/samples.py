@@ -42,7 +42,8 @@ MAX_CALL_SAMPLES = 10**8
 
 
 class KernelRun:
-    """One piece run by an integrator kernel, in chunks of at most ``size`` samples (None: in one go).
+    """One piece run by an integrator kernel, in chunks of at most ``size`` samples (None: in one go; with
+    ``schedule``, up to ``size + RERUN_MAX_SAMPLES + 1``: the scheduling kernel ends a call between regions).
 
     Iterating yields ``(params (m,), points (m, 3) mm, feeds (m,) mm/s)`` in path
     order (in one go: one chunk, unless the room ``cap`` was short, when the
