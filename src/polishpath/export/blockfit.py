@@ -483,10 +483,12 @@ def _farthest(F, B, s, lo0, k0, i0, j0, e, dw, breaks, coeffs, dp, dn, radius, s
         c = e if lo0 < e else -1
         while c > 0:
             inside = dw if (dw >= 0 and c > dw) else -1
-            r, k, fi, fj = _fits(F, B, s, c, tol, e_s, res, arcs, rounding, inside)
-            while r < 0:  # evaluate the check points the fit needs, then fit again
-                span = _check_points(F, B, -r - 1, breaks, coeffs, dp, dn, radius, span)
+            # one call site of the inlined fit (two sites doubled the kernel's compile time on a fresh checkout)
+            while True:
                 r, k, fi, fj = _fits(F, B, s, c, tol, e_s, res, arcs, rounding, inside)
+                if r >= 0:
+                    break
+                span = _check_points(F, B, -r - 1, breaks, coeffs, dp, dn, radius, span)  # what the fit needs
             if r == 1:
                 lo = c
                 kind, gi, gj = k, fi, fj
