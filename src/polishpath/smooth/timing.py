@@ -30,7 +30,7 @@ import numpy as np
 
 from .spans import DIM, chord_feed_limit, span_at, span_derivs, span_of
 
-__all__ = ["solve_region_feeds", "region_model_times", "corrected_targets", "DEFAULT_ORDER", "KERNEL_ORDER",
+__all__ = ["solve_region_feeds", "corrected_targets", "DEFAULT_ORDER", "KERNEL_ORDER",
            "region_nodes",
            "sort_nodes", "feed_for_time", "time_at"]
 
@@ -179,24 +179,6 @@ def solve_region_feeds(breaks, coeffs, region_b, dwell_params, times, vmax, peri
         feeds[j] = f
         model[j] = time_at(lim, wt, f)
     return feeds, model, lengths
-
-
-@numba.njit(cache=True)
-def region_model_times(breaks, coeffs, region_b, dwell_params, feeds, vmax, period_s, tol, gx, gw):  # pragma: no cover
-    """The modelled time of every region at the given feeds (capped by ``vmax``), (R,) s."""
-    nr = feeds.shape[0]
-    q2 = 2 * gx.shape[0]
-    out = np.empty(nr)
-    lim = np.empty(q2)
-    wt = np.empty(q2)
-    c0 = np.empty(DIM)
-    c1 = np.empty(DIM)
-    c2 = np.empty(DIM)
-    for j in range(nr):
-        region_nodes(breaks, coeffs, region_b[j], dwell_params[j], region_b[j + 1], gx, gw, period_s, tol, lim, wt,
-                      c0, c1, c2)
-        out[j] = time_at(lim, wt, min(feeds[j], vmax))
-    return out
 
 
 def corrected_targets(times: np.ndarray, spent: np.ndarray, model: np.ndarray) -> np.ndarray:
