@@ -18,14 +18,17 @@ layers, and the rule below covers every unit, with no exception:
 * on top: ``paper`` (the reproduction, built on the pipeline), ``cli`` (the
   command line), ``__main__`` and the package ``__init__``.
 
-No two units import each other (no import circle), and no module reaches
-outside the package for files (``Path(__file__).parents[...]`` into the
+No two units import each other (no import circle), no two modules import each
+other either, inside a package or across (a circle of modules, even through an
+import inside a function, works only by the order the modules happen to load
+in), and no module reaches outside the package for files (``Path(__file__).parents[...]`` into the
 checkout): data folders come in as arguments.
 
 How to fix a failure: move the shared code into polishpath/meshops.py (mesh
 maths), polishpath/pathops.py (path maths) or polishpath/types.py (data), or
 pass the data in from the polishpath/pipeline package; a new module or package gets its
-place in ORDER (or CORE) here.
+place in ORDER (or CORE) here. A circle of modules inside a package: move what they share
+down into a module of its own that both import (smooth/kernels.py, simulate/profile.py).
 """
 
 from __future__ import annotations
@@ -136,6 +139,101 @@ def test_no_import_circle():
 
     for u in sorted(graph):
         visit(u, [u])
+
+
+def module_name(path: Path, root: Path = SRC) -> str:
+    """Dotted name of a module file under ``root`` (a package's ``__init__.py`` is the package)."""
+    parts = list(path.relative_to(root.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def module_imports(path: Path, modules: set[str], root: Path = SRC) -> set[tuple[str, int]]:
+    """``(module, line)`` of every module of the package that ``path`` imports, anywhere in the file
+    (an import inside a function closes a circle as surely as one at the top, only later).
+
+    ``from .x import name`` is an import of module ``x`` (or of submodule ``x.name`` when there is one);
+    ``from . import name`` of the submodule ``name``, else of the package's ``__init__``.
+    """
+    me = module_name(path, root)
+    package = me if path.name == "__init__.py" else me.rpartition(".")[0]
+    top = root.name
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        targets = []
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            targets = [f"{target}.{a.name}" if f"{target}.{a.name}" in modules else target for a in node.names]
+        elif isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        out.update((t, node.lineno) for t in targets if t in modules and t != me and t.split(".")[0] == top)
+    return out
+
+
+def module_circles(root: Path = SRC) -> list[list[str]]:
+    """The import circles between the modules under ``root``: the shortest circle through each module (its
+    modules in import order, the first repeated at the end) that no circle found before passes through."""
+    files = {module_name(p, root): p for p in sorted(root.rglob("*.py"))}
+    graph = {m: {t for t, _ in module_imports(p, set(files), root)} for m, p in files.items()}
+    circles, seen = [], set()
+    for start in sorted(graph):
+        if start in seen:
+            continue
+        # breadth-first from start: the shortest way back to it, if any
+        prev, queue = {start: None}, [start]
+        back = None
+        while queue and back is None:
+            nxt = []
+            for u in queue:
+                for v in sorted(graph[u]):
+                    if v == start:
+                        back = u
+                        break
+                    if v not in prev:
+                        prev[v] = u
+                        nxt.append(v)
+                if back is not None:
+                    break
+            queue = nxt
+        if back is None:
+            continue
+        trail = [back]
+        while prev[trail[-1]] is not None:
+            trail.append(prev[trail[-1]])
+        circle = [*reversed(trail), start]
+        seen.update(circle)
+        circles.append(circle)
+    return circles
+
+
+def test_no_import_circle_between_modules():
+    circles = module_circles()
+    assert not circles, "import circle(s) between modules: " + "; ".join(" -> ".join(c) for c in circles) + (
+        ". Move what the modules of a circle share down into a module of its own that each of them imports "
+        "(as smooth/kernels.py holds the integrator kernels for smooth/interpolate.py and smooth/samples.py), "
+        "or pass it in as an argument; an import moved into a function hides the circle, it does not remove it.")
+
+
+def test_the_circle_rule_catches_a_circle_through_a_function(tmp_path):
+    # the rule itself: a -> b at the top, b -> a inside a function, in a subpackage; c alone is no circle
+    pkg = tmp_path / "polishpath" / "stage"
+    pkg.mkdir(parents=True)
+    (tmp_path / "polishpath" / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("from .a import f\n")
+    (pkg / "a.py").write_text("from .b import g\nfrom .. import stage\n")
+    (pkg / "b.py").write_text("def g():\n    from . import a\n    return a\n")
+    (pkg / "c.py").write_text("from .a import f\nfrom polishpath.stage import b\n")
+    root = tmp_path / "polishpath"
+    assert module_imports(pkg / "c.py", {"polishpath.stage.a", "polishpath.stage.b"}, root) == {
+        ("polishpath.stage.a", 1), ("polishpath.stage.b", 2)}
+    assert module_circles(root) == [["polishpath.stage", "polishpath.stage.a", "polishpath.stage"],
+                                    ["polishpath.stage.b", "polishpath.stage.a", "polishpath.stage.b"]]
+    (pkg / "b.py").write_text("def g():\n    return 1\n")
+    (pkg / "a.py").write_text("from .b import g\n")
+    assert module_circles(root) == []
 
 
 def _climbs_out(node: ast.AST, depth: int) -> int | None:

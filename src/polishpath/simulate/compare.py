@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError, PatchTooSmallError
-from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peaks, psd_1d, suppression_ratio
+from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peaks, suppression_ratio
 from ..pathops import split_by_pieces
 from ..types import PlanarPath
 from .motion import dwell_from_feed
@@ -26,7 +26,8 @@ from .comparefiles import format_table, plot_psds, write_outputs
 from .machinetime import COMPARE_TIMINGS, machine_timed_path
 from .mechanisms import Mechanisms, tool_with
 from .removal import ProcessNoise, SimulationResult, Smoothing, simulate_removal, smooth_surface
-from .rotating import RotatingToolTIF, rotating_tool_tif
+from .profile import profile_psd
+from .rotating import RotatingToolTIF, default_tif
 from .spread import FAIR_KEYS, aggregate_rows, rank, spread
 from .tif import TIF, DirectionalTIF
 from .workpiece import DEFAULT_DX_MM, Workpiece, flat_workpiece, synthetic_workpiece
@@ -48,45 +49,8 @@ PAPER_TABLE4: dict[str, tuple[float, float, float]] = {
 DEFAULT_NOISE = ProcessNoise(rms=0.05, correlation_length_mm=2.0, correlation_time_s=1.0)
 
 
-def default_tif() -> RotatingToolTIF:
-    """The default tool of :func:`compare_patterns`: the paper's sponge at 230 rpm (docs/simulation.md).
-
-    Parabolic (Winkler-foam) pressure over a 2 mm contact radius, nominal feed 600 mm/min; its
-    Preston coefficient is rescaled by :func:`compare_patterns` to remove the depth asked for.
-    """
-    return rotating_tool_tif()
 #: default smoothing of a compliant sponge
 DEFAULT_SMOOTHING = Smoothing(depth_nm=100.0, length_mm=1.0)
-
-
-def profile_psd(map_nm: np.ndarray, dx_mm: float, *, window: str = "hann", detrend="tilt") -> PSD:
-    """Profilometer-style PSD of a map: 1D PSDs of all rows and all columns, averaged.
-
-    Averaging both directions makes the figure independent of how the
-    profilometer would have been aligned to a directional (raster) texture.
-
-    Parameters
-    ----------
-    map_nm : (n, n) float
-        Square height map, nm.
-    dx_mm : float
-        Pixel pitch, mm.
-
-    Returns
-    -------
-    PSD
-        ``kind="1d"``, nm^2 mm; ``params["directions"] = "rows+columns"``.
-    """
-    z = np.asarray(map_nm, dtype=np.float64)
-    if z.shape[0] != z.shape[1]:
-        n = min(z.shape)
-        z = z[:n, :n]
-    a = psd_1d(z, dx_mm, window=window, detrend=detrend, nan="raise")
-    b = psd_1d(z.T, dx_mm, window=window, detrend=detrend, nan="raise")
-    params = dict(a.params)
-    params.update({"directions": "rows+columns", "n_profiles": a.params["n_profiles"] + b.params["n_profiles"],
-                   "variance_nm2": 0.5 * (a.params["variance_nm2"] + b.params["variance_nm2"])})
-    return PSD(a.freq, 0.5 * (a.psd + b.psd), kind="1d", units=a.units, params=params)
 
 
 def _crop(res_map: np.ndarray, origin, dx, bounds) -> np.ndarray:

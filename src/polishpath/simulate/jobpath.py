@@ -412,7 +412,7 @@ def simulate_job(tool_path: ToolPath, surface: Surface, *, flattening: Flattenin
     timing : {"machine", "dwell"}
         See :func:`timed_path`.
     tif : TIF, DirectionalTIF or RotatingToolTIF, optional
-        Default: the paper's sponge at 230 rpm (:func:`~polishpath.simulate.compare.default_tif`).
+        Default: the paper's sponge at 230 rpm (:func:`~polishpath.simulate.rotating.default_tif`).
     dx_mm : float, optional
         Pixel pitch, mm; default the finest of 5 um that keeps the part within ``max_pixels``.
     max_pixels : int
@@ -440,7 +440,8 @@ def simulate_job(tool_path: ToolPath, surface: Surface, *, flattening: Flattenin
         when it is too small), all parameters) and ``psd`` (PSD of the centre square or None).
     """
     from ..psd.core import PAPER_BAND_PER_MM, band_rms, find_peaks
-    from .compare import default_tif, profile_psd
+    from .profile import profile_psd
+    from .rotating import default_tif
 
     band = PAPER_BAND_PER_MM if band is None else band
     if not (depth_nm > 0 and np.isfinite(depth_nm)):

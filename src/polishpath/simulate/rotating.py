@@ -405,3 +405,13 @@ def rotating_tool_tif(rpm: float = DEFAULT_RPM, contact_radius_mm: float = DEFAU
               "lateral_shift_mm": float(v / (2 * abs(w)))}
     return RotatingToolTIF(float(rpm), float(contact_radius_mm), pressure, float(peak_rate_nm_s), float(feed_mm_min),
                            params)
+
+
+def default_tif() -> RotatingToolTIF:
+    """The default tool of the path comparison and of a job's simulation: the paper's sponge at 230 rpm
+    (docs/simulation.md).
+
+    Parabolic (Winkler-foam) pressure over a 2 mm contact radius, nominal feed 600 mm/min; its Preston
+    coefficient is rescaled by ``polishpath.simulate.compare_patterns`` to remove the depth asked for.
+    """
+    return rotating_tool_tif()

@@ -33,8 +33,6 @@ from __future__ import annotations
 
 import math
 import time
-import weakref
-from typing import NamedTuple
 
 import numpy as np
 
@@ -42,12 +40,11 @@ from .. import progress
 from ..defaults import DEFAULT_INTEGRATOR
 from ..errors import ParameterError, SmoothingError
 from ..types import NurbsCurve
-from .abam import abam_kernel
 from .samples import DEFAULT_STREAM_SAMPLES, KernelRun
-from .spans import DIM, STATE_SIZE, chord_errors_kernel, span_bend_bounds
+from .kernels import INTEGRATORS, SCHEDULING_KERNELS, KernelCurve, _kernel_coeffs, integrator_kernel, kernel_curve
+from .spans import DIM, STATE_SIZE, chord_errors_kernel
 from .timing import DEFAULT_ORDER, KERNEL_ORDER, corrected_targets, solve_region_feeds
-from .nurbs import evaluate, span_polynomials
-from .taylor import taylor_kernel, taylor_schedule_kernel
+from .nurbs import evaluate
 
 __all__ = ["arc_lengths", "dwell_regions", "interpolate_constant_period", "chord_errors", "INTEGRATORS",
            "DEFAULT_INTEGRATOR", "integrator_kernel", "kernel_curve", "KernelCurve", "DWELL_TIME_TOL"]
@@ -62,24 +59,6 @@ REGION_RERUN_TOL = 0.02
 20 % for 0.333 / 0.093 / 0.019; at 0.03, 14 % for 0.317 / 0.091 / 0.019 (the whole corrective pass before:
 0.353 / 0.140 / 0.026). 0.02 because at 0.03 the mapped cap of tests/test_smooth.py missed by up to 0.029
 (p99 0.016), more than the corrective pass (0.027, 0.013); at 0.02 by 0.023 (p99 0.011)."""
-
-
-INTEGRATORS = {"taylor": taylor_kernel, "ab-am": abam_kernel}
-"""Name -> compiled kernel; every kernel takes and returns the same arrays (see :func:`.taylor.taylor_kernel`).
-The job's option lists the same names (``polishpath.defaults.INTEGRATOR_NAMES``, checked by a test)."""
-
-SCHEDULING_KERNELS = {"taylor": taylor_schedule_kernel}
-"""Integrators whose kernel also finds the dwell regions' feeds as it runs (one pass over the path plus
-the regions it runs again, :func:`.taylor.taylor_schedule_kernel`); the others run whole schedule passes."""
-
-
-def integrator_kernel(name: str):
-    """The compiled kernel of an integrator name; :class:`ParameterError` naming the choices otherwise."""
-    if name not in INTEGRATORS:
-        raise ParameterError(f"integrator must be one of {', '.join(map(repr, INTEGRATORS))}, got {name!r}.",
-                             "Use 'taylor' (Taylor predictor + exact chord corrector) or 'ab-am' "
-                             "(the paper's Adams-Bashforth / Adams-Moulton).")
-    return INTEGRATORS[name]
 
 
 def arc_lengths(curve: NurbsCurve, u0: np.ndarray, u1: np.ndarray, split: np.ndarray | None = None,
@@ -112,48 +91,6 @@ def dwell_regions(dwell_params: np.ndarray, u_start: float, u_end: float) -> np.
     """
     d = np.asarray(dwell_params, dtype=np.float64)
     return np.concatenate([[u_start], 0.5 * (d[1:] + d[:-1]), [u_end]])
-
-
-def _kernel_coeffs(curve: NurbsCurve) -> tuple[np.ndarray, np.ndarray, int]:
-    """Span breaks and coefficients with :data:`.spans.DIM` = 3 coordinates (a planar curve gets z = 0), and d."""
-    breaks, coeffs, _ = span_polynomials(curve)
-    d = coeffs.shape[2] - 1
-    if d > DIM:
-        raise SmoothingError(f"Constant-period interpolation runs curves in up to {DIM} dimensions, got {d}.",
-                             "Give the curve's x, y (and z) coordinates only.")
-    if d < DIM:
-        padded = np.zeros(coeffs.shape[:2] + (DIM + 1,))
-        padded[:, :, :d] = coeffs[:, :, :d]
-        padded[:, :, DIM] = coeffs[:, :, d]
-        coeffs = padded
-    return breaks, np.ascontiguousarray(coeffs), d
-
-
-class KernelCurve(NamedTuple):
-    """A curve as the kernels take it: spans, 3-coordinate coefficients, bend bounds, size; ``d`` its own coordinates."""
-
-    breaks: np.ndarray
-    coeffs: np.ndarray
-    bends: np.ndarray
-    size: float
-    d: int
-
-
-def kernel_curve(curve: NurbsCurve) -> KernelCurve:
-    """The curve's spans and their bend bounds for the kernels (:func:`.spans.span_bend_bounds`), once per curve."""
-    hit = _KC_CACHE.get(id(curve))
-    if hit is not None and hit[0]() is curve:
-        return hit[1]
-    breaks, coeffs, d = _kernel_coeffs(curve)
-    bends, size = span_bend_bounds(breaks, coeffs)
-    kc = KernelCurve(breaks, coeffs, bends, float(size), d)
-    _KC_CACHE[id(curve)] = (weakref.ref(curve), kc)
-    # dropped with the curve; not at exit (a signal then would print a traceback from the finalizer)
-    weakref.finalize(curve, _KC_CACHE.pop, id(curve), None).atexit = False
-    return kc
-
-
-_KC_CACHE: dict = {}
 
 
 def _padded(points: np.ndarray) -> np.ndarray:

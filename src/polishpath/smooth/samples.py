@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import ParameterError, SmoothingError
 from ..types import SampleChunk, ToolPath
+from .kernels import integrator_kernel, kernel_curve
 from .spans import (ST_CE_MAX, ST_COUNT, ST_DONE, ST_FALLBACKS, ST_FL_MAX, ST_FL_N, ST_FL_SQ, ST_JB, ST_LENGTH,
                     ST_LIMITED, ST_PRED_MAX, ST_RERUN_REGIONS, ST_RERUN_SAMPLES, ST_RUNS_MAX, ST_V_MAX, ST_V_MIN, new_state)
 
@@ -55,9 +56,9 @@ class KernelRun:
     Parameters
     ----------
     kernel
-        An integrator kernel (:data:`.interpolate.INTEGRATORS`).
+        An integrator kernel (:data:`.kernels.INTEGRATORS`).
     kc : KernelCurve
-        The curve's spans and bend bounds (:func:`.interpolate.kernel_curve`).
+        The curve's spans and bend bounds (:func:`.kernels.kernel_curve`).
     u0, u1, region_b, region_feed, vmax, period_s, tol
         The piece and its schedule (see :func:`.taylor.taylor_kernel`).
     schedule : tuple, optional
@@ -175,8 +176,6 @@ def iter_sample_chunks(tool_path: ToolPath, size: int = DEFAULT_STREAM_SAMPLES) 
         ``samples``, ``sample_params`` and ``feed_mm_min`` equal, bit for bit,
         the arrays ``smooth(..., keep_samples=True)`` holds.
     """
-    from .interpolate import integrator_kernel, kernel_curve
-
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
         raise ParameterError(f"chunk size must be a whole number of samples >= 1, got {size!r}.",
                              "Give e.g. size=262144.")
