@@ -88,10 +88,10 @@ def _pieces_of(tool_path):
 
 
 def test_registry_lists_every_post_with_its_help():
-    assert set(POSTS) == {"linuxcnc", "fanuc", "xyz", "csv"}
+    assert set(POSTS) == {"linuxcnc", "fanuc", "xyz", "csv", "sinumerik", "abb"}
     h = post_help()
     assert "Fanuc 15i/30i" in h and "NURBS" in h and "LinuxCNC" in h
-    with pytest.raises(ParameterError, match="linuxcnc, fanuc, xyz, csv"):
+    with pytest.raises(ParameterError, match="linuxcnc, fanuc, xyz, csv, sinumerik, abb"):
         get_post("heidenhain")
     assert get_post().name == "linuxcnc" and get_post("fanuc").modes[0] == "nurbs"
 

@@ -28,13 +28,16 @@ from .base import GcodePost, PostProcessor, PostSettings, offset_along_normals, 
 from .fanuc import FanucPost
 from .files import CsvPost, XyzPost
 from .linuxcnc import LinuxCNCPost
+from .rapid import RapidPost
+from .sinumerik import SinumerikPost
 
 __all__ = ["POSTS", "DEFAULT_POST", "get_post", "write_program", "post_help", "job_post_settings", "PostProcessor",
            "GcodePost",
            "PostSettings", "LinuxCNCPost", "FanucPost", "XyzPost", "CsvPost", "offset_along_normals",
            "planned_segment_times"]
 
-POSTS: dict[str, type[PostProcessor]] = {p.name: p for p in (LinuxCNCPost, FanucPost, XyzPost, CsvPost)}
+POSTS: dict[str, type[PostProcessor]] = {p.name: p for p in (LinuxCNCPost, FanucPost, XyzPost, CsvPost,
+                                                              SinumerikPost, RapidPost)}
 DEFAULT_POST = "linuxcnc"
 
 
