@@ -4,7 +4,10 @@ Iteration 1 solves dwell times for error-1.toml. The part is then "polished"
 with a process that differs from the model the way a real one does (the
 removal rate 5 % low, plus 0.5 nm RMS of random mid-spatial texture), and the
 result is "measured" into after-1.xyz (x y z text, nm). Iteration 2 is the same
-job with --error-map after-1.xyz.
+job with --error-map after-1.xyz and a gentler tool (FINISH_TIF: a lower pressure,
+2 nm/s at the peak): at iteration 1's 15 nm/s the minimum times alone would
+remove about 20 nm everywhere, more than the few nm the part still needs, and
+polishpath refuses such a program (docs/figuring.md, "Never worse").
 
 Usage: python examples/figuring/run_two_iterations.py [OUT_DIR]
 """
@@ -22,6 +25,8 @@ from scipy import ndimage
 from polishpath.pipeline import JobConfig, run
 
 HERE = Path(__file__).resolve().parent
+#: the finishing iteration's TIF: the same spot at a lower pressure
+FINISH_TIF = "gaussian:fwhm=3,peak_rate=2"
 
 
 def polish_and_measure(run_dir: Path, out_file: Path, rate_error: float = -0.05, texture_nm: float = 0.5, seed: int = 0):
@@ -62,7 +67,7 @@ def main(out: Path, **overrides):
               f"solver {fg['solver']}", flush=True)
         if it == 1:
             after = polish_and_measure(d, out / "after-1.xyz")
-            cfg = JobConfig.from_toml(HERE / "job.toml", **{**overrides, "error_map": str(after)})
+            cfg = JobConfig.from_toml(HERE / "job.toml", **{**overrides, "error_map": str(after), "tif": FINISH_TIF})
     return figures
 
 

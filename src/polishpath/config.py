@@ -158,6 +158,9 @@ class JobConfig:
     error_map_options : dict or None
         The ``[error_map]`` table of a job TOML (alignment, solver options; keys in
         :data:`ERROR_MAP_KEYS`).
+    force : bool
+        Write a figuring program that is refused (floor above the error's PV, or predicted worse); the summary
+        records the refusal (docs/figuring.md).
     report : bool
         Write ``report.html`` and PNG figures.
     remesh : str
@@ -259,6 +262,10 @@ class JobConfig:
              "rotating:rpm=RPM,radius=MM,peak_rate=NM_PER_S (default: the rotating sponge).")
     error_map_options: dict[str, Any] | None = option(
         None, help="The [error_map] table of a job TOML (docs/figuring.md).")
+    force: bool = option(
+        False, "--force/--no-force",
+        help="Write a figuring program even when it is refused (its minimum-removal floor exceeds the error's PV, or "
+             "it is predicted to leave the part worse); the summary says so.")
     report: bool = option(True, "--report/--no-report", help="Write report.html and the PNG figures (default: yes).")
     remesh: str = option("auto", "--remesh", parse=remesh_choice, cli_type=str,
                          help="Refine a CAD-style sliver mesh before flattening, keeping its surface exactly: 'auto' "

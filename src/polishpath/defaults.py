@@ -14,3 +14,8 @@ DEFAULT_CHORD_TOL_MM = 0.001
 #: with an exact chord corrector, or the paper's Adams-Bashforth / Adams-Moulton); docs/machine-output.md says why
 INTEGRATOR_NAMES = ("taylor", "ab-am")
 DEFAULT_INTEGRATOR = "taylor"
+#: figuring refuses (exit 2, unless --force) when the minimum-removal floor (what every dwell point's least time
+#: removes, on average over the clear aperture) exceeds this share of the error's PV, the deepest removal it needs
+FIGURING_FLOOR_MAX_SHARE = 1.0
+#: the parameters a refusal suggests bring the floor down to this share of the error's PV
+FIGURING_FLOOR_ADVICE_SHARE = 0.2

@@ -114,6 +114,10 @@ class FiguringError(PolishPathError):
     """Dwell times could not be solved from the error map and TIF (infeasible, not converged)."""
 
 
+class FiguringRefusedError(FiguringError):
+    """The figuring program would leave the part worse, or its minimum-removal floor exceeds what the error needs."""
+
+
 class CoverageError(FiguringError, InputError):
     """The measured error map does not cover the part's clear aperture."""
 

@@ -269,9 +269,9 @@ def _print_plan_summary(job, summary: dict, written: dict, out_dir: Path) -> Non
                    f"boundary {1000 * sm['boundary_excursion_max_mm']:.3g} um")
     fg = summary.get("figuring")
     if fg:
-        typer.echo(f"  figuring ({fg['solver']}): error {fg['initial_rms_nm']:.3g} nm RMS -> predicted residual "
-                   f"{fg['residual_rms_nm']:.3g} nm RMS ({fg['residual_pv_nm']:.3g} nm PV), dwell total "
-                   f"{fg['total_time_s'] / 60:.1f} min")
+        typer.echo(f"  figuring ({fg['solver']}): {fg['verdict']}, dwell total {fg['total_time_s'] / 60:.1f} min")
+        for m in fg.get("refusals") or []:
+            typer.echo(f"polishpath: warning: refused, written with --force: {m}", err=True)
         if fg.get("uncorrectable_note"):
             typer.echo(f"  {fg['uncorrectable_note']}")
     m = p.get("metrics", {})

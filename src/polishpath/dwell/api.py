@@ -8,13 +8,14 @@ the summary and the report show.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..errors import FiguringError
+from ..errors import FiguringError, FiguringRefusedError
 from ..types import Provenance, Surface, SurfacePath
 from .delivery import region_centroids
 from .errormap import Alignment, ErrorMap
@@ -26,9 +27,11 @@ from .solver import (
     removal_map,
     solve_dwell,
     split_by_frequency,
+    tif_rate,
     tif_reach_mm,
 )
 from .target import Target, aperture_geometry, build_target, rms_pv
+from .verdict import FloorAdvice, FloorCheck, advice_scale, floor_exceeds, refusal_for_floor
 
 
 @dataclass(frozen=True)
@@ -53,6 +56,8 @@ class Figuring:
         ``min_time_excess_nm`` (infeasibility: most the minimum times remove
         beyond the target, before the bias), ``ideal_residual_rms_nm`` (the
         residual of that model), solver figures.
+    floor : FloorCheck or None
+        The minimum-removal floor against the error, the advice and whether a refusal was forced.
     """
 
     times_s: np.ndarray
@@ -62,6 +67,7 @@ class Figuring:
     provenance: Provenance
     stats: dict[str, Any] = field(default_factory=dict)
     ideal_removal_nm: np.ndarray | None = None
+    floor: FloorCheck | None = None
 
 
 def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: ErrorMap, tif, *,
@@ -69,7 +75,8 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
                        method: str = "auto", smoothness: float = DEFAULT_SMOOTHNESS, extension_weight: float = 0.2,
                        max_uncovered: float = 0.02, solve_pitch_mm: float | None = None, max_iter: int = 3000,
                        spacing_mm: float | None = None, ca_margin_mm: float = 0.0, period_ms: float | None = None,
-                       chord_tol_mm: float | None = None, t_min_s: np.ndarray | None = None) -> Figuring:
+                       chord_tol_mm: float | None = None, t_min_s: np.ndarray | None = None,
+                       force: bool = False) -> Figuring:
     """Solve the dwell times that remove ``error_map`` along ``surface_path``.
 
     Parameters
@@ -99,6 +106,10 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
         :func:`~polishpath.dwell.solver.minimum_times`).
     t_min_s : (N,) float, optional
         Minimum times to use instead (e.g. raised where the machine-timed path could not go faster).
+    force : bool
+        Go on when the minimum-removal floor exceeds the error's PV (recorded in ``Figuring.floor``);
+        otherwise that raises :class:`~polishpath.errors.FiguringRefusedError` with the floor, its cause
+        and the parameters that would work (:mod:`polishpath.dwell.verdict`).
 
     Returns
     -------
@@ -128,6 +139,7 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
     # infeasibility: what the minimum times alone remove, against the target (at zero bias)
     rmin = removal_map(target.grid, cen, tmin, tif)
     valid = target.valid
+    target0 = target
     excess = float(np.max((rmin - target.removal_nm)[valid])) if valid.any() else 0.0
     if auto_bias and excess > 0:
         target = target.with_bias(excess)
@@ -138,13 +150,27 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
             "over-removal. Use bias = 'auto' (or >= that), a faster maximum feed or a lower TIF rate.",
             UserWarning, stacklevel=2)
     grid_ij = surface_path.planar.ij if surface_path.planar is not None and len(surface_path.planar.ij) == n else None
-    sol = solve_dwell(pts, target, tif, tmin, spacing_mm=spacing, method=method, grid_ij=grid_ij,
-                      smoothness=smoothness, solve_pitch_mm=solve_pitch_mm, max_iter=max_iter, centres_xy=cen)
+    solve_kw = dict(spacing_mm=spacing, method=method, grid_ij=grid_ij, smoothness=smoothness,
+                    solve_pitch_mm=solve_pitch_mm, max_iter=max_iter, centres_xy=cen)
+    init_rms, init_pv = rms_pv(target.error_nm[valid])
+    floor = float(np.mean(rmin[valid])) if valid.any() else 0.0
+    fc = FloorCheck(floor, init_pv, init_rms, tif_peak_rate(tif), float(max_feed_mm_min), spacing,
+                    floor_exceeds(floor, init_pv))
+    scale = advice_scale(floor, init_pv)
+    if scale < 1.0:  # the floor is above the advised share: the parameters that bring it there, re-solved
+        fc = _with_advice(fc, scale, pts, target0, rmin, tmin, tif, auto_bias, solve_kw, reach)
+    if fc.exceeds:
+        msg = refusal_for_floor(fc)
+        if not force:
+            raise FiguringRefusedError(msg, "Or give --force to write this program anyway.")
+        warnings.warn(msg + " Going on: --force.", UserWarning, stacklevel=2)
+        fc = dataclasses.replace(fc, forced=True, refusals=(msg,))
+    grid_ij = surface_path.planar.ij if surface_path.planar is not None and len(surface_path.planar.ij) == n else None
+    sol = solve_dwell(pts, target, tif, tmin, **solve_kw)
     if not sol.converged:
         warnings.warn(f"the dwell-time solver ({sol.solver}) did not converge in {sol.stats.get('iterations')} "
                       f"iterations ({sol.stats.get('message')}); the residual shown is that of the last iterate.",
                       UserWarning, stacklevel=2)
-    init_rms, init_pv = rms_pv(target.error_nm[valid])
     f_cut = passband_cutoff_per_mm(tif, spacing)
     _, high = split_by_frequency(target.grid, target.removal_nm, f_cut)
     unc_rms, _ = rms_pv(high[valid])
@@ -154,7 +180,7 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
         "initial_rms_nm": init_rms, "initial_pv_nm": init_pv,
         "uncorrectable_rms_nm": unc_rms, "passband_cutoff_per_mm": f_cut,
         "ideal_residual_rms_nm": ideal_rms, "ideal_residual_pv_nm": ideal_pv,
-        "min_time_excess_nm": max(excess, 0.0), "bias_nm": target.params["bias_nm"],
+        "min_time_excess_nm": max(excess, 0.0), "floor_nm": floor, "bias_nm": target.params["bias_nm"],
         "bias_mode": "auto" if auto_bias else "given",
         "uncovered_fraction": target.params["uncovered_fraction"],
         "solver": sol.solver, "solver_converged": sol.converged, "solver_stats": sol.stats,
@@ -170,7 +196,36 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
         "smoothness": float(smoothness), "extension_weight": float(extension_weight),
         "max_uncovered": float(max_uncovered), "ca_margin_mm": float(ca_margin_mm), "alignment": (alignment or Alignment()).to_dict(),
         "tif": _tif_params(tif), "error_map": error_map.source}, seed=surface_path.provenance.seed)
-    return Figuring(sol.times_s, target, sol, tif, prov, stats, ideal)
+    return Figuring(sol.times_s, target, sol, tif, prov, stats, ideal, fc)
+
+
+def tif_peak_rate(tif) -> float:
+    """The TIF's highest removal rate, nm/s."""
+    if getattr(tif, "kind", None) == "gaussian":
+        return float(tif.params["peak_rate_nm_s"])
+    r = tif_reach_mm(tif)
+    g = np.linspace(-r, r, 121)
+    X, Y = np.meshgrid(g, g)
+    return float(np.max(tif_rate(tif, X.ravel(), Y.ravel())))
+
+
+def _with_advice(fc: FloorCheck, scale: float, pts, target0: Target, rmin, tmin, tif, auto_bias: bool,
+                 solve_kw: dict, reach: float) -> FloorCheck:
+    """``fc`` with the parameters that scale the floor by ``scale``: the peak rate is exact (the removal is
+    proportional to it), checked by solving again with every removal scaled (the same as the minimum times
+    scaled, in units of today's TIF); top feed and spacing are the same scale in proportion."""
+    valid = target0.valid
+    t = target0
+    if auto_bias:
+        ex = float(np.max((scale * rmin - target0.removal_nm)[valid])) if valid.any() else 0.0
+        t = target0.with_bias(max(ex, 0.0))
+    sol = solve_dwell(pts, t, tif, scale * tmin, **solve_kw)
+    res = (t.removal_nm - removal_map(t.grid, solve_kw["centres_xy"], sol.times_s, tif))[valid]
+    rr, rp = rms_pv(res)
+    sp = fc.spacing_mm / scale
+    adv = FloorAdvice(scale, fc.floor_nm * scale, fc.peak_rate_nm_s * scale, fc.max_feed_mm_min / scale,
+                      sp if sp <= reach / 3.0 else float("nan"), rr, rp)
+    return dataclasses.replace(fc, advice=adv)
 
 
 def _tif_params(tif) -> dict[str, Any]:
@@ -228,7 +283,17 @@ def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float,
 def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]:
     """The ``figuring`` block of ``summary.json``."""
     st = fig.stats
+    fc = fig.floor
+    lead = (f"initial {st['initial_rms_nm']:.3g} nm RMS ({st['initial_pv_nm']:.3g} nm PV) -> predicted "
+            f"{predicted['residual_rms_nm']:.3g} nm RMS ({predicted['residual_pv_nm']:.3g} nm PV); minimum-removal "
+            f"floor {st['floor_nm']:.3g} nm")
+    if fc is not None and fc.forced:
+        lead += " (refused, written with --force)"
     return {
+        "verdict": lead, "floor_nm": st["floor_nm"],
+        "floor_share_of_error_pv": fc.ratio if fc is not None else None,
+        "forced": bool(fc is not None and fc.forced), "refusals": list(fc.refusals) if fc is not None else [],
+        "floor_advice": fc.advice.to_dict() if fc is not None and fc.advice is not None else None,
         "initial_rms_nm": st["initial_rms_nm"], "initial_pv_nm": st["initial_pv_nm"],
         "residual_rms_nm": predicted["residual_rms_nm"], "residual_pv_nm": predicted["residual_pv_nm"],
         "residual_model": "machine-timed: the smoothed path's samples at the interpolation period",

@@ -152,8 +152,29 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         with progress.stage("figuring: residual of the machine-timed path", timings, "dwell_residual"):
             prediction = predict_residual(fig, tool.samples, tool.period_ms, sample_s=sample_s,
                                           delivered_s=region_times(tool, sample_s))
+        fig = _judge_figuring(cfg, fig, prediction)
     return Job(cfg, surface, flat, region, planar, spath, tool, sp.planar_spacing, timings, pm, schedule=sched,
                figuring=fig, figuring_prediction=prediction, samples_mode=samples_mode)
+
+
+def _judge_figuring(cfg: JobConfig, fig, prediction: dict[str, Any]):
+    """Refuse a figuring program predicted to leave the part worse (RMS or PV) unless ``cfg.force``; returns
+    ``fig`` with the forced refusal recorded."""
+    from ..dwell.verdict import refusal_for_prediction
+    from ..errors import FiguringRefusedError
+
+    st = fig.stats
+    msg = refusal_for_prediction(fig.floor, st["initial_rms_nm"], st["initial_pv_nm"], prediction["residual_rms_nm"],
+                                 prediction["residual_pv_nm"], uncorrectable_rms_nm=st["uncorrectable_rms_nm"],
+                                 passband_per_mm=st["passband_cutoff_per_mm"], converged=fig.solution.converged,
+                                 delivered_error_rms=prediction.get("delivered_time_error_rms"))
+    if not msg:
+        return fig
+    if not cfg.force:
+        raise FiguringRefusedError(msg, "Or give --force to write this program anyway.")
+    progress.warn(msg + " Written anyway: --force.")
+    fc = dataclasses.replace(fig.floor, forced=True, refusals=fig.floor.refusals + (msg,))
+    return dataclasses.replace(fig, floor=fc)
 
 
 def samples_held_for(cfg: JobConfig, machine) -> str:
@@ -249,5 +270,5 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_
         extension_weight=float(o.get("extension_weight", 0.2)), max_uncovered=float(o.get("max_uncovered", 0.02)),
         ca_margin_mm=float(o.get("ca_margin_mm", 0.0)),
         period_ms=cfg.period_ms or (machine.period_ms if machine is not None else DEFAULT_PERIOD_MS),
-        chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=region_times(fastest))
+        chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=region_times(fastest), force=cfg.force)
     return fig, max_feed

@@ -120,14 +120,22 @@ def figuring_section(run: RunData, png_uri) -> str:
              if fg.get("delivered_time_error_rms") is not None else "n/a"),
             ("solver message", fg.get("solver_message")),
             ("above the passband (uncorrectable) RMS, nm", f"{fg['uncorrectable_rms_nm']:.4g}"),
-            ("total dwell time, min", f"{fg['total_time_s'] / 60:.4g}"), ("uniform bias, nm", f"{fg['bias_nm']:.4g} ({fg['bias_mode']})"),
+            ("total dwell time, min", f"{fg['total_time_s'] / 60:.4g}"),
+            ("minimum-removal floor, nm (the minimum times alone, mean)",
+             f"{fg['floor_nm']:.4g}" if fg.get("floor_nm") is not None else "n/a"),
+            ("uniform bias, nm", f"{fg['bias_nm']:.4g} ({fg['bias_mode']})"),
             ("points at their minimum time", f"{100 * (fg.get('points_at_minimum_share') or 0):.1f} %"),
             ("uncovered share of the aperture", f"{100 * fg['uncovered_fraction']:.2f} %")]
     table = "<table class=\"kv\">" + "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(str(v))}</td></tr>"
                                             for k, v in rows) + "</table>"
     note = f'<p class="note warn">{html.escape(fg["uncorrectable_note"])}</p>' if fg.get("uncorrectable_note") else ""
+    lead = ""
+    if fg.get("verdict"):  # initial -> predicted and the floor, first (runs before issue 28 lack it)
+        lead = f'<p class="lead"><b>{html.escape(fg["verdict"])}</b></p>'
+        lead += "".join(f'<p class="note warn">Refused, written with --force: {html.escape(m)}</p>'
+                        for m in fg.get("refusals") or [])
     img = f'<figure><img src="{png_uri(png)}" alt="figuring maps" style="max-width:100%"></figure>' if png else ""
     return ('<section id="figuring"><h2>Figuring: dwell times from the measured error</h2>'
-            '<p class="note">The dwell times in path.csv and the machine files were solved from the error map and '
+            + lead + '<p class="note">The dwell times in path.csv and the machine files were solved from the error map and '
             "the TIF (docs/figuring.md). Removal and residual are those of the machine-timed path (the samples "
             "at the interpolation period), over the clear aperture.</p>" + note + table + img + "</section>")
