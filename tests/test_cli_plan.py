@@ -53,7 +53,8 @@ def test_rerun_from_job_toml_is_bit_identical(small_run, tmp_path):
     out, _ = small_run
     r = runner.invoke(app, ["plan", "--config", str(out / "job.toml"), "-o", str(tmp_path), "--no-report", "-q"])
     assert r.exit_code == 0, r.output
-    for name in ("path.csv", "toolpath.xyz"):
+    # same seed, same bytes: on one machine with the same versions, every machine file and the run's arrays
+    for name in ("path.csv", "toolpath.xyz", "toolpath.nc", "flat.obj", "run.npz"):
         assert (out / name).read_bytes() == (tmp_path / name).read_bytes(), name
 
 
