@@ -311,6 +311,34 @@ class JobConfig:
 ERROR_MAP_KEYS = frozenset({"offset_mm", "rotation_deg", "flip", "scale", "lateral_unit", "dx_mm", "bias_nm", "method",
                             "smoothness", "ca_margin_mm", "max_uncovered", "extension_weight", "max_feed_mm_min"})
 
+#: the numbers of the ``[error_map]`` table and their range: (low, high, low included)
+ERROR_MAP_RANGES = {"dx_mm": (0.0, math.inf, False), "scale": (0.0, math.inf, False),
+                    "rotation_deg": (-math.inf, math.inf, True), "bias_nm": (0.0, math.inf, True),
+                    "smoothness": (0.0, math.inf, True), "ca_margin_mm": (0.0, math.inf, True),
+                    "max_uncovered": (0.0, 1.0, True), "extension_weight": (0.0, math.inf, True),
+                    "max_feed_mm_min": (0.0, math.inf, False)}
+
+
+def _check_error_map_numbers(table: dict[str, Any]) -> None:
+    """Every number of an ``[error_map]`` table finite and in its range (NaN, inf, 0 spacing refused)."""
+    for key, (lo, hi, lo_ok) in ERROR_MAP_RANGES.items():
+        v = table.get(key)
+        if v is None or (key == "bias_nm" and v == "auto"):
+            continue
+        ok = (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+              and (v >= lo if lo_ok else v > lo) and v <= hi)
+        if not ok:
+            rng = f"{'>=' if lo_ok else '>'} {lo:g}" + (f" and <= {hi:g}" if math.isfinite(hi) else "")
+            rng = "a finite number" if not math.isfinite(lo) else rng
+            raise ParameterError(f"[error_map] {key} must be {rng}, got {v!r}.",
+                                 "Fix it in the job file's [error_map] table (docs/figuring.md).")
+    off = table.get("offset_mm")
+    if off is not None and not (isinstance(off, (list, tuple)) and len(off) == 2 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in off)):
+        raise ParameterError(f"[error_map] offset_mm must be two finite numbers [x, y] in mm, got {off!r}.",
+                             "Fix it in the job file's [error_map] table (docs/figuring.md).")
+
+
 #: the fields of :class:`JobConfig` by name
 FIELDS: dict[str, dataclasses.Field] = {f.name: f for f in dataclasses.fields(JobConfig)}
 #: the fields that have command-line flags, in declaration order: ``polishpath plan`` is built from these
@@ -360,6 +388,8 @@ def _check(f: dataclasses.Field, v: Any) -> Any:
         if ok and f.name == "error_map_options" and set(v) - ERROR_MAP_KEYS:
             raise SpecError(f"unknown [error_map] option(s) {', '.join(sorted(set(v) - ERROR_MAP_KEYS))}.",
                             f"Options: {', '.join(sorted(ERROR_MAP_KEYS))}.")
+        if ok and f.name == "error_map_options":
+            _check_error_map_numbers(v)
         kind = "a table of settings"
         v = dict(v) if ok else v
     else:  # the (u, v) pair

@@ -54,7 +54,11 @@ class ErrorMap:
         z = np.array(self.z_nm, dtype=np.float64)
         if z.ndim != 2 or min(z.shape) < 2:
             raise ParameterError(f"an error map must be a 2D array of at least 2 x 2 pixels, got shape {z.shape}.")
-        z[~np.isfinite(z)] = np.nan
+        n_inf = int(np.isinf(z).sum())
+        if n_inf:  # NaN is "no data" (a mask); an infinite height is never a measurement
+            raise ParameterError(
+                f"the error map {self.source!r} has {n_inf} infinite height(s) of {z.size} pixels.",
+                "Write NaN (no data) where the instrument measured nothing, or export the map again.")
         z.setflags(write=False)
         object.__setattr__(self, "z_nm", z)
         for name in ("dx_mm", "dy_mm"):

@@ -150,10 +150,49 @@ def measured_tif(rate_nm_s, dx_mm: float) -> TIF:
         raise ParameterError(f"a measured TIF must be a 2D array of at least 3 x 3, got shape {a.shape}.")
     if not np.isfinite(a).all():
         raise ParameterError("the measured TIF contains NaN or infinite values.", "Fill or crop them first.")
-    if not dx_mm > 0:
+    if not (np.isfinite(dx_mm) and dx_mm > 0):
         raise ParameterError(f"dx_mm must be positive, got {dx_mm}.")
+    if a.max() <= 0 or a.min() < -1e-9 * a.max():  # below zero beyond rounding: not a removal rate
+        raise ParameterError(f"a measured TIF's rates must be >= 0 nm/s with a positive peak; got {a.min():.4g} to "
+                             f"{a.max():.4g} nm/s.", "Set its noise below zero to zero first.")
     a.setflags(write=False)
     return TIF("measured", {"dx_mm": float(dx_mm), "peak_rate_nm_s": float(a.max()), "shape": list(a.shape)}, a)
+
+
+#: negative rates down to this share of the peak are a measured spot's noise (set to zero, counted); more is refused
+NEGATIVE_RATE_NOISE = 0.05
+
+
+def _rates_from_map(a: np.ndarray, name: str) -> np.ndarray:
+    """A measured removal-rate map (nm/s) made usable, every change named.
+
+    Pixels without data (NaN: outside the instrument's aperture, around the
+    spot) become zero removal, and small negative rates (noise around zero,
+    down to :data:`NEGATIVE_RATE_NOISE` of the peak) become zero; a warning
+    gives both counts. A map without a positive peak, or with negative rates
+    beyond the noise (a height map, not a removal map: the sign is the other
+    way), is refused.
+    """
+    from .. import progress
+
+    a = np.array(a, dtype=np.float64)
+    n_nan = int(np.isnan(a).sum())
+    peak = float(np.nanmax(a)) if n_nan < a.size else float("nan")
+    if not (np.isfinite(peak) and peak > 0):
+        raise ParameterError(f"{name}: the measured TIF has no positive removal rate (peak {peak!r} nm/s).",
+                             "Give a removal map (depth removed > 0) of one spot, with its rate= or dwell_s=.")
+    low = float(np.nanmin(a))
+    if low < -NEGATIVE_RATE_NOISE * peak:
+        raise ParameterError(
+            f"{name}: the measured TIF has negative removal rates down to {low:.4g} nm/s "
+            f"({100 * -low / peak:.1f} % of its {peak:.4g} nm/s peak; noise allows {100 * NEGATIVE_RATE_NOISE:g} %).",
+            "Is it a height map (material left) rather than the depth removed? Give removal as positive depth.")
+    n_neg = int((a < 0).sum())
+    if n_nan or n_neg:
+        progress.warn(f"{name}: {n_nan} pixel(s) without data (NaN) and {n_neg} small negative rate(s) (noise, "
+                      f"at least {low:.3g} nm/s) of {a.size} in the measured TIF set to zero removal.")
+    a[np.isnan(a) | (a < 0)] = 0.0
+    return a
 
 
 def parse_tif_spec(spec: str) -> tuple[str, dict[str, Any]]:
@@ -209,6 +248,9 @@ def tif_from_spec(spec: str, base_dir=None) -> TIF:
     if kind == "measured":
         if "file" not in p:
             raise ParameterError(f"--tif {spec!r}: a measured TIF needs its file (measured:file=PATH).")
+        for key in ("rate", "dwell_s", "dx"):
+            if key in p and not (np.isfinite(p[key]) and p[key] > 0):
+                raise ParameterError(f"--tif {spec!r}: {key} must be a positive number, got {p[key]!r}.")
         from ..psd import read_measurement
 
         f = Path(p["file"])
@@ -219,8 +261,8 @@ def tif_from_spec(spec: str, base_dir=None) -> TIF:
             raise ParameterError(f"{f.name}: a measured TIF must be a 2D map (a removal spot).")
         if m.dy_mm and abs(m.dy_mm - m.dx_mm) > 1e-9 * m.dx_mm:
             raise ParameterError(f"{f.name}: a measured TIF needs square pixels (dx {m.dx_mm}, dy {m.dy_mm} mm).")
-        a = np.nan_to_num(m.z_nm, nan=0.0) * p.get("rate", 1.0) / p.get("dwell_s", 1.0)
-        t = measured_tif(a, m.dx_mm)
+        a = m.z_nm * p.get("rate", 1.0) / p.get("dwell_s", 1.0)
+        t = measured_tif(_rates_from_map(a, f.name), m.dx_mm)
         t.params["file"] = str(f)
         return t
     raise ParameterError(f"--tif {spec!r}: the rotating-tool TIF is built by the pipeline (polishpath plan).")

@@ -118,14 +118,55 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
     for what, unit, table in (("lateral", lateral_unit, _TO_MM), ("height", height_unit, _TO_NM)):
         if unit is not None:
             _unit_factor(unit, table, what)  # an unknown unit is refused before reading
+    for name, v in (("dx_mm", dx_mm), ("dy_mm", dy_mm)):
+        _check_spacing(v, name, "the argument")
     if path.suffix.lower() == ".datx":
         m = _read_datx(path, dx_mm=dx_mm, lateral_unit=lateral_unit, height_unit=height_unit)
     else:
         text = path.read_text(encoding="utf-8", errors="replace")
         m = _read_text(text, str(path), csv_like=path.suffix.lower() == ".csv", lateral_unit=lateral_unit,
                        height_unit=height_unit, dx_mm=dx_mm, dy_mm=dy_mm)
+    check_heights(m.z_nm, path.name)
+    _check_spacing(m.dx_mm, "the sampling interval", path.name)
+    if m.dy_mm is not None:
+        _check_spacing(m.dy_mm, "the pixel height", path.name)
     _say_what_was_assumed(m, path)
     return m
+
+
+def _check_spacing(v: float | None, what: str, where: str) -> None:
+    """A spacing (mm) that is given must be finite and > 0: a zero or NaN pixel size is refused, named."""
+    if v is not None and not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and v > 0):
+        raise MeasurementFileError(f"{where}: {what} must be a positive number of mm, got {v!r}.",
+                                   "Give the pixel size (dx_mm / '# dx: 0.005 mm', --dx) as a positive length.")
+
+
+def check_heights(z: np.ndarray, name: str, what: str = "height") -> int:
+    """Refuse infinite values in a measured array; return how many are NaN (no data).
+
+    An interferometer marks the pixels it could not measure (outside its
+    aperture, dropouts) as NaN or a "no data" sentinel, read as NaN: those are
+    kept as missing data and counted. An infinite value is never a
+    measurement: :class:`MeasurementFileError` names the count, the first
+    position and what to do.
+
+    Parameters
+    ----------
+    z : (N,) or (Ny, Nx) float64
+        Heights (any unit).
+    name : str
+        The file's name, for the message.
+    """
+    bad = np.isinf(z)
+    n = int(bad.sum())
+    if n:
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        at = f"row {first[0]}, column {first[1]}" if len(first) == 2 else f"sample {first[0]}"
+        raise MeasurementFileError(
+            f"{name}: {n} of {z.size} {what} values are infinite (the first at {at}).",
+            "An infinite value is not a measurement: write NaN (no data) where the instrument measured nothing, "
+            "or export the file again from the instrument's software.")
+    return int(np.isnan(z).sum())
 
 
 def _say_what_was_assumed(m: Measurement, path: Path) -> None:
@@ -137,6 +178,12 @@ def _say_what_was_assumed(m: Measurement, path: Path) -> None:
                       f"If that is wrong, pass {opts} (m, mm, um, nm).")
     if m.params.get("resampled"):
         progress.warn(f"{path.name}: {m.params['resampled']}.")
+    if m.n_nan:
+        what = "pixels" if m.kind == "map" else "samples"
+        marked = "NaN or the file's no-data value" if m.params.get("no_data_value") is not None else "NaN"
+        progress.warn(f"{path.name}: {m.n_nan} of {m.z_nm.size} {what} have no data ({marked}): "
+                      "kept as missing, never as zero height (the error map's coverage check, the TIF reader or the "
+                      "PSD's --nan policy decides what is done with them).")
 
 
 def _parse_rows(text: str, csv_like: bool):
@@ -203,8 +250,7 @@ def _read_text(text, source, *, csv_like, lateral_unit, height_unit, dx_mm, dy_m
     if nc == 2:
         x = data[:, 0] * kx
         z = data[:, 1] * kz
-        if np.isnan(x).any():
-            raise MeasurementFileError(f"{source!r}: x coordinates contain NaN.", "Every sample needs its x.")
+        _finite_coordinates(source, x=x)
         order = np.argsort(x)
         x, z = x[order], z[order]
         d = np.diff(x)
@@ -220,6 +266,7 @@ def _read_text(text, source, *, csv_like, lateral_unit, height_unit, dx_mm, dy_m
         return Measurement(z, step, None, "profile", source, params)
     if nc == 3:
         x, y, z = data[:, 0] * kx, data[:, 1] * kx, data[:, 2] * kz
+        _finite_coordinates(source, x=x, y=y)
         ux, uy = np.unique(np.round(x, 9)), np.unique(np.round(y, 9))
         if len(ux) * len(uy) > 2 * len(x) or len(ux) < 8 or len(uy) < 8:
             raise MeasurementFileError(
@@ -249,6 +296,17 @@ def _read_text(text, source, *, csv_like, lateral_unit, height_unit, dx_mm, dy_m
     params["layout"] = "grid"
     params["n_nan"] = int(np.isnan(grid).sum())
     return Measurement(grid, float(dxv), float(dyv), "map", source, params)
+
+
+def _finite_coordinates(source: str, **coords: np.ndarray) -> None:
+    """Refuse NaN or infinite x / y coordinates: a sample must say where it is."""
+    for axis, c in coords.items():
+        bad = ~np.isfinite(c)
+        if bad.any():
+            raise MeasurementFileError(
+                f"{source!r}: {int(bad.sum())} of {len(c)} {axis} coordinates are NaN or infinite "
+                f"(the first on data line {int(np.argmax(bad)) + 1}).",
+                f"Every sample needs a finite {axis}; leave out the samples without one (a missing height is NaN).")
 
 
 def _value_with_unit(s: str) -> float:
@@ -299,8 +357,8 @@ def _read_datx(path: Path, dx_mm: float | None, lateral_unit: str | None = None,
         attrs = ds.attrs
         no_data = _attr_scalar(attrs["No Data"]) if "No Data" in attrs else None
         if no_data is not None:
-            z[z >= float(no_data)] = np.nan
-        z[~np.isfinite(z)] = np.nan
+            z[z >= float(no_data)] = np.nan  # the instrument's "no data" pixels (counted, warned about)
+            params["no_data_value"] = float(no_data)
         if height_unit is not None:
             unit = height_unit
         elif "Unit" in attrs:
@@ -311,6 +369,9 @@ def _read_datx(path: Path, dx_mm: float | None, lateral_unit: str | None = None,
         params["z_unit_in_file"] = unit
         if unit.lower() == "fringes":
             wl_m = float(_attr_scalar(attrs["Wavelength"]))
+            if not (np.isfinite(wl_m) and wl_m > 0):
+                raise MeasurementFileError(f"{str(path)!r}: heights are in fringes but the wavelength is {wl_m!r}.",
+                                           "Pass --height-unit with the unit of the heights, or export in nm.")
             sf = float(_attr_scalar(attrs.get("Interferometric Scale Factor", 1.0)))
             ob = float(_attr_scalar(attrs.get("Obliquity Factor", 1.0)))
             z = z * sf * ob * wl_m * 1e9
@@ -337,7 +398,7 @@ def _read_datx(path: Path, dx_mm: float | None, lateral_unit: str | None = None,
                         dx = float(_attr_scalar(v)) * _unit_factor(str(_attr_scalar(u)), _TO_MM, "lateral")
                         src = f"/Attributes {k}"
                         break
-        if dx is None or not dx > 0:
+        if dx is None or not (np.isfinite(dx) and dx > 0):
             raise MeasurementFileError(f"{str(path)!r} does not state its lateral resolution.",
                                        "Pass dx_mm (pixel size in mm).")
     params.update({"dx_source": src, "dataset": f"/Data/Surface/{key}", "n_nan": int(np.isnan(z).sum()),
