@@ -236,6 +236,65 @@ def test_the_circle_rule_catches_a_circle_through_a_function(tmp_path):
     assert module_circles(root) == []
 
 
+#: what stages pass on in typed fields (ToolPath.sample_pieces / piece_params, PlanarPath.lattice /
+#: dwell_points_only), never as ``stats`` keys; runfolder.py, the format, alone names them as keys (run.npz
+#: arrays, and the figures of a format 0-2 summary.json it still reads)
+TYPED_KEYS = {"sample_pieces", "piece_params", "on_grid"}
+#: dict methods that change a dict in place
+MUTATING = {"update", "setdefault", "pop", "popitem", "clear", "__setitem__", "__delitem__"}
+
+
+def stats_misuse(tree: ast.AST, module: str) -> list[tuple[int, str]]:
+    """``(line, what)`` for each read or write of a :data:`TYPED_KEYS` key as a dict key, and each in-place
+    change of an object's ``stats`` (``obj.stats[k] = v``, ``obj.stats.update(...)``; a local dict is free)."""
+    out = []
+
+    def key(node) -> str | None:
+        typed = isinstance(node, ast.Constant) and node.value in TYPED_KEYS and module != "runfolder.py"
+        return node.value if typed else None
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Subscript) and key(node.slice):
+            out.append((node.lineno, f"[{key(node.slice)!r}]"))
+        elif isinstance(node, ast.Dict):
+            out.extend((node.lineno, f"{{{key(k)!r}: ...}}") for k in node.keys if key(k))
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+            name = node.func.attr
+            if name in ("get", "pop", "setdefault") and node.args and key(node.args[0]):
+                out.append((node.lineno, f".{name}({key(node.args[0])!r})"))
+            if name in ("update", "setdefault"):
+                out.extend((node.lineno, f".{name}({kw.arg}=...)") for kw in node.keywords if key(ast.Constant(kw.arg)))
+            owner = node.func.value
+            if name in MUTATING and isinstance(owner, ast.Attribute) and owner.attr == "stats":
+                out.append((node.lineno, f"<object>.stats.{name}(...)"))
+        elif isinstance(node, (ast.Assign, ast.AugAssign, ast.Delete)):
+            for t in node.targets if isinstance(node, (ast.Assign, ast.Delete)) else [node.target]:
+                if isinstance(t, ast.Subscript) and isinstance(t.value, ast.Attribute) and t.value.attr == "stats":
+                    out.append((node.lineno, "<object>.stats[...] = ..."))
+    return out
+
+
+@pytest.mark.parametrize("path", sorted(SRC.rglob("*.py")), ids=lambda p: str(p.relative_to(SRC)))
+def test_stages_pass_data_in_typed_fields_and_change_no_stats(path):
+    found = stats_misuse(ast.parse(path.read_text(), filename=str(path)), str(path.relative_to(SRC)))
+    assert not found, (
+        f"{path.relative_to(SRC)}: " + ", ".join(f"line {n}: {w}" for n, w in found) + ". What a later stage "
+        "needs is a typed field (ToolPath.sample_pieces / piece_params, PlanarPath.lattice / dwell_points_only), "
+        "not a stats key a reader could miss and fall back from; and a frozen object's stats is not changed "
+        "after it is made: build a new one (dataclasses.replace(obj, stats={**obj.stats, ...})).")
+
+
+def test_the_stats_rule_catches_keys_and_changes():
+    bad = ast.parse("a = tp.stats.get('sample_pieces', [0, 1])\nb = st['piece_params']\n"
+                    "s.update(on_grid=True)\nmapped.stats.update(x=1)\ntool.stats['y'] = 2\nd = {'on_grid': 1}")
+    assert sorted(n for n, _ in stats_misuse(bad, "x.py")) == [1, 2, 3, 4, 5, 6]
+    good = ast.parse("stats = {}\nstats['x'] = 1\nstats.update(y=2)\nn = tp.sample_pieces\n"
+                     "new = replace(tp, stats={**tp.stats, 'z': 3})")
+    assert stats_misuse(good, "x.py") == []
+    assert stats_misuse(ast.parse("st.pop('sample_pieces', None)\na = {'piece_params': 1}"), "runfolder.py") == []
+    assert len(stats_misuse(ast.parse("run.stats.update(x=1)"), "runfolder.py")) == 1
+
+
 def _climbs_out(node: ast.AST, depth: int) -> int | None:
     """How far above polishpath/ a ``Path(__file__)`` expression climbs (None: it does not)."""
     # count .parent steps and the index of .parents[k] above a __file__ name

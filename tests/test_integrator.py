@@ -127,7 +127,7 @@ def test_the_job_with_each_integrator_passes_through_every_dwell_point(integrato
     # the curve passes through every dwell point, and every piece starts and ends on one
     assert np.abs(evaluate(tp.curve, tp.dwell_params) - sp.xyz).max() <= 1e-9
     assert tp.stats["dwell_through_max"] <= 1e-9
-    off = tp.stats["sample_pieces"]
+    off = tp.sample_pieces
     for k in range(len(path.pieces) - 1):
         assert np.linalg.norm(tp.samples[off[k]] - sp.xyz[path.pieces[k]]) <= 1e-9
         assert np.linalg.norm(tp.samples[off[k + 1] - 1] - sp.xyz[path.pieces[k + 1] - 1]) <= 1e-9

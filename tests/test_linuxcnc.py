@@ -127,7 +127,7 @@ def test_rs274_runs_every_move_with_its_planned_time_at_the_fixed_period(rs274, 
     canon = rs274(f)
     assert canon.ok, canon.errors[:5]
     driven = tp.samples + radius * sample_normals(tp)  # tool centre (or contact point)
-    off = tp.stats["sample_pieces"]
+    off = tp.sample_pieces
     pts, times = _path_moves(canon)
     assert len(pts) == len(off) - 1
     dt = planned_segment_times(tp)
@@ -165,7 +165,7 @@ def test_rs274_spends_the_scheduled_time_around_every_dwell_point(rs274, job, ra
     assert info["arc_blocks"] == int(np.count_nonzero(canon.turns))
     pts, times, centres, turns = _path_moves(canon, arcs=True)
     sp = tp.surface_path
-    off, doff = tp.stats["sample_pieces"], sp.planar.pieces
+    off, doff = tp.sample_pieces, sp.planar.pieces
     dt = planned_segment_times(tp)
     driven = tp.samples + radius * sample_normals(tp)
     worst = 0.0
@@ -209,7 +209,7 @@ def test_rs274_sees_blending_spindle_slurry_approach_and_retract_in_order(rs274,
     # per piece: rapid up to the clearance plane, across, down to the approach point; feed along the
     # normal onto the part at the approach feed; ... ; feed back along the normal; rapid up
     normals = sample_normals(tp)
-    off = tp.stats["sample_pieces"]
+    off = tp.sample_pieces
     moves = [(n, np.array([float(v) for v in a.split(",")[:3]])) for n, a in canon.calls
              if n in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE")]
     kinds = "".join("F" if n == "STRAIGHT_FEED" else "T" for n, _ in moves)

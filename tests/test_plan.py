@@ -305,7 +305,8 @@ def test_pattern_registry_allows_peers():
 
     def reverse_raster(grid, region, *, seed, start, **opt):
         base = PATTERNS["raster"](grid, region, seed=seed, start=start)
-        return PatternResult(base.uv[::-1], base.ij[::-1], base.pieces[-1] - base.pieces[::-1], True, {})
+        return PatternResult(base.uv[::-1], base.ij[::-1], base.pieces[-1] - base.pieces[::-1], True, {},
+                             lattice=grid.lattice)
 
     register_pattern("test_reverse_raster", reverse_raster)
     try:

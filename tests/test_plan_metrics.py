@@ -139,7 +139,7 @@ def test_raster_baseline(star_region):
     sh = m["direction_shares"]
     assert sh["E"] + sh["W"] > 0.8 and m["directions_used"] <= 4  # periodic: two directions
     _steps_inside(p, star_region)
-    assert p.provenance.seed is None and p.stats["on_grid"]
+    assert p.provenance.seed is None and p.dwell_points_only
 
 
 def test_rectangular_baseline(star_region):
@@ -155,7 +155,7 @@ def test_rectangular_baseline(star_region):
 def test_spiral_baseline(star_region):
     p = plan(star_region, 0.5, "spiral")
     m = path_metrics(p)
-    assert p.stats["on_grid"] is False
+    assert p.dwell_points_only is False
     same = _steps_inside(p, star_region)
     steps = np.hypot(*np.diff(p.uv, axis=0).T)[same]
     # constant arc step = spacing: chords are a little shorter on the first tight turn

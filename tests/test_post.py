@@ -80,7 +80,7 @@ def _path_arcs(text: str):
 
 
 def _pieces_of(tool_path):
-    off = np.asarray(tool_path.stats["sample_pieces"])
+    off = np.asarray(tool_path.sample_pieces)
     return list(zip(off[:-1], off[1:]))
 
 
@@ -296,7 +296,7 @@ def test_fanuc_nurbs_program_passes_the_format_check_and_rebuilds_the_curve(tool
     curves = fanuc_check(text)
     sp = tool_path.surface_path
     assert len(curves) == len(sp.planar.pieces) - 1
-    pp = tool_path.stats["piece_params"]
+    pp = tool_path.piece_params
     dt = planned_segment_times(tool_path)
     for k, c in enumerate(curves):
         kn, cp = np.array(c["K"]), np.array(c["C"])

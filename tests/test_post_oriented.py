@@ -81,7 +81,7 @@ def check_program(tool_path, post, text, info, radius, time_tol=0.01):
     s_axes, d_axes = planned_axes(tool_path)
     driven = tool_path.samples + radius * sample_normals(tool_path)
     dw_all = sp.xyz + radius * sp.normals / np.linalg.norm(sp.normals, axis=1, keepdims=True)
-    off = np.asarray(tool_path.stats["sample_pieces"])
+    off = np.asarray(tool_path.sample_pieces)
     runs = m.runs()
     assert len(runs) == len(off) - 1
     # the planned points a block may end at (samples and dwell points) with their planned axes

@@ -27,7 +27,7 @@ def job():
 def _limits_of(tp):
     """Measured from the timed samples, piece by piece."""
     dt = planned_segment_times(tp)
-    off = tp.stats["sample_pieces"]
+    off = tp.sample_pieces
     return [segment_limits(tp.samples[a:b], dt[a + 1 : b]) for a, b in zip(off[:-1], off[1:])]
 
 

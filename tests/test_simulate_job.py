@@ -36,10 +36,10 @@ def test_machine_timing_runs_the_samples_one_period_per_move(shallow_job):
     tp = shallow_job.tool_path
     t = timed_path(tp)
     m = len(tp.samples)
-    k = len(tp.stats["sample_pieces"]) - 1
+    k = len(tp.sample_pieces) - 1
     assert t.time_model == "moves" and t.timing == "machine" and t.plane == "xy"
     assert np.array_equal(t.xy, tp.samples[:, :2])
-    assert np.array_equal(t.pieces, tp.stats["sample_pieces"])
+    assert np.array_equal(t.pieces, tp.sample_pieces)
     T = tp.period_ms / 1000
     assert t.time_s.sum() == pytest.approx((m - k) * T, rel=1e-12)
     assert t.time_s.sum() == pytest.approx(tp.stats["duration_s"], rel=1e-9)  # the job's machine time
@@ -60,7 +60,7 @@ def test_unrolled_machine_samples_follow_the_planar_path(shallow_job):
     tp, sp = shallow_job.tool_path, shallow_job.surface_path
     # a tool path whose samples are its dwell points lands exactly on the planar path
     at_dwell = ToolPath(tp.curve, tp.dwell_params, sp.xyz, tp.dwell_params, np.full(len(sp.xyz), 600.0), 4.0, sp,
-                        stats={"sample_pieces": list(sp.planar.pieces)})
+                        sample_pieces=sp.planar.pieces, piece_params=tp.piece_params)
     assert np.allclose(timed_path(at_dwell, plane="unrolled").xy, sp.planar.uv, atol=1e-12)
     # the real samples stay within one planar step of the planar path
     u = timed_path(tp, plane="unrolled").xy

@@ -242,7 +242,7 @@ def test_smooth_stage_on_a_mapped_path():
     assert tp.stats["dwell_through_max"] <= 1e-9
     assert np.all(np.diff(tp.dwell_params) > 0) and np.all(np.diff(tp.curve.knots) >= 0)
     # samples: per piece, start and end on its first and last dwell point
-    sp_off = tp.stats["sample_pieces"]
+    sp_off = tp.sample_pieces
     for k in range(len(path.pieces) - 1):
         s0, s1 = tp.samples[sp_off[k]], tp.samples[sp_off[k + 1] - 1]
         assert np.linalg.norm(s0 - sp.xyz[path.pieces[k]]) < 1e-9
@@ -412,7 +412,7 @@ def test_dwell_times_are_met_better_than_the_fixed_point_schedule_did():
     st = tp.stats
     assert st["dwell_time_error_p99"] < 0.05 and st["dwell_time_error_rms"] < 0.0202
     assert st["schedule_passes"] <= 2 and st["chord_error_max"] <= 1e-3
-    pieces, off = sp.planar.pieces, st["piece_params"]
+    pieces, off = sp.planar.pieces, tp.piece_params
     worst = 0.0
     for k in range(len(pieces) - 1):
         sl = slice(pieces[k], pieces[k + 1])
@@ -421,7 +421,7 @@ def test_dwell_times_are_met_better_than_the_fixed_point_schedule_did():
         res = interpolate_constant_period(tp.curve, 1200.0, 4.0, 1e-3, dwell_params=tp.dwell_params[sl],
                                           dwell_times=tp.dwell_times[sl], max_feed_mm_min=6000.0,
                                           u_range=(off[k], np.nextafter(off[k + 1], -np.inf)))
-        assert np.array_equal(res["params"], tp.sample_params[st["sample_pieces"][k]:st["sample_pieces"][k + 1]])
+        assert np.array_equal(res["params"], tp.sample_params[tp.sample_pieces[k]:tp.sample_pieces[k + 1]])
         worst = max(worst, float(np.abs(res["dwell_time_error"]).max()))
     assert 0 < worst < 0.05
 

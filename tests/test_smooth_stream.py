@@ -148,7 +148,7 @@ def test_streamed_chunks_equal_the_kept_samples(kept, size):
     assert np.array_equal(smp, kept.samples) and np.array_equal(par, kept.sample_params)
     assert np.array_equal(feed, kept.feed_mm_min)
     assert all(isinstance(c, SampleChunk) and 1 <= len(c) <= size for c in chunks)
-    off = kept.stats["sample_pieces"]
+    off = kept.sample_pieces
     assert kept.schedule.n_samples == off[-1] == len(kept.samples)
     start = 0
     for c in chunks:  # each chunk lies within its piece's sample range
@@ -210,13 +210,13 @@ def test_keep_samples_false_runs_the_kernel_in_bounded_chunks(mapped, monkeypatc
 
 def test_the_schedule_is_what_the_samples_were_made_with(kept):
     sch = kept.schedule
-    n, k = len(kept.dwell_params), len(kept.stats["piece_params"]) - 1
+    n, k = len(kept.dwell_params), len(kept.piece_params) - 1
     assert sch.n_pieces == k and len(sch.region_feeds) == n and len(sch.region_bounds) == n + k
     assert sch.integrator == kept.provenance.params["integrator"] and sch.period_ms == kept.period_ms
     assert sch.max_feed_mm_s == pytest.approx(kept.provenance.params["max_feed_mm_min"] / 60.0)
     for j in range(k):
         u0, u1, rb, rf = sch.piece(j)
-        a = kept.stats["sample_pieces"][j]
+        a = kept.sample_pieces[j]
         assert kept.sample_params[a] == u0 and rb[0] == u0 and rb[-1] == u1 and np.all(np.diff(rb) >= 0)
         assert np.all(rf > 0) and np.all(rf <= sch.max_feed_mm_s)
 
@@ -232,7 +232,8 @@ def test_streaming_needs_a_schedule_and_a_good_chunk_size(kept):
         smooth(kept.surface_path, keep_samples=False, chunk_samples=0)
     with pytest.raises(ParameterError, match="SampleSchedule"):
         ToolPath(kept.curve, kept.dwell_params, kept.samples, kept.sample_params, kept.feed_mm_min, kept.period_ms,
-                 kept.surface_path, schedule={"piece_params": []})
+                 kept.surface_path, schedule={"piece_params": []}, sample_pieces=kept.sample_pieces,
+                 piece_params=kept.piece_params)
 
 
 def test_sample_schedule_refuses_inconsistent_arrays(kept):
@@ -275,7 +276,7 @@ def test_a_piece_run_in_one_go_continues_in_resumed_calls_when_it_is_long(monkey
     monkeypatch.setitem(table, integrator, counting)
     short = smooth(sp, surface=None, feed_mm_min=1200.0, period_ms=4.0, chord_tol_mm=1e-3, integrator=integrator)
     most = 1000 + (RERUN_MAX_SAMPLES + 1 if table is interp.SCHEDULING_KERNELS else 0)
-    assert max(calls) <= most and len(calls) > len(kept.stats["sample_pieces"])
+    assert max(calls) <= most and len(calls) > len(kept.sample_pieces)
     assert np.array_equal(short.samples, kept.samples) and np.array_equal(short.feed_mm_min, kept.feed_mm_min)
     assert np.array_equal(short.sample_params, kept.sample_params)
     for key in ("chord_error_max", "feed_fluctuation_rms", "dwell_time_error_max", "dwell_time_error_rms"):

@@ -35,14 +35,15 @@ from typing import Any
 import numpy as np
 
 from ._version import __version__
-from .errors import InputError
+from .errors import InputError, ParameterError
 from .fileio import atomic_open, jsonable, read_toml  # read_toml: job.toml, job configs (re-exported)
-from .types import (Flattening, NurbsCurve, PlanarPath, Provenance, Region, SampleSchedule, Surface, SurfacePath,
-                    ToolPath)
+from .types import (Flattening, Lattice, NurbsCurve, PlanarPath, Provenance, Region, SampleSchedule, Surface,
+                    SurfacePath, ToolPath)
 
-#: version of the run-folder format written by this polishpath (2: the machine samples are not stored
-#: where their schedule regenerates them; 1 stored every sample)
-SCHEMA_VERSION = 2
+#: version of the run-folder format written by this polishpath (3: the pieces of the samples and the planar
+#: path's lattice are arrays, no longer figures of summary.json; 2: the machine samples are not stored where
+#: their schedule regenerates them; 1 stored every sample)
+SCHEMA_VERSION = 3
 #: top-level key of ``summary.json`` holding the format version (absent: a folder from before the format had one, 0)
 SCHEMA_KEY = "run_folder_schema"
 
@@ -59,8 +60,9 @@ ARRAY_KEYS = (
     "uv", "angles",                                        # flattening
     "plan_uv", "plan_ij", "plan_pieces", "plan_unreached",  # planar path
     "plan_spacing", "plan_origin", "plan_rotation",
+    "plan_lattice_basis", "plan_lattice_origin", "plan_lattice_steps", "plan_dwell_points_only",
     "xyz", "normals", "dwell_weight", "face_ids", "bary",  # path on the part
-    "dwell_params", "dwell_times",                         # tool path
+    "dwell_params", "dwell_times", "sample_pieces", "piece_params",  # tool path
     "knots", "control_points", "curve_weights", "curve_degree",
     "display_sample_index", "display_samples", "feed_bins", "feed_envelope",  # what the report draws of the samples
 )
@@ -158,10 +160,12 @@ def write_run(
         "vertices": surface.vertices, "faces": surface.faces, "uv": fl.uv, "angles": fl.angles,
         "plan_uv": pp.uv, "plan_ij": pp.ij, "plan_pieces": pp.pieces, "plan_unreached": pp.unreached,
         "plan_spacing": np.float64(pp.spacing), "plan_origin": pp.origin, "plan_rotation": np.float64(pp.rotation),
+        **_lattice_arrays(pp.lattice), "plan_dwell_points_only": np.bool_(pp.dwell_points_only),
         "xyz": sp.xyz, "normals": sp.normals, "dwell_weight": sp.dwell_weight,
         "face_ids": sp.face_ids, "bary": sp.bary,
         "dwell_params": tp.dwell_params,
         "dwell_times": tp.dwell_times if tp.dwell_times is not None else np.zeros(0),
+        "sample_pieces": tp.sample_pieces, "piece_params": tp.piece_params,
         "knots": tp.curve.knots, "control_points": tp.curve.control_points,
         "curve_weights": tp.curve.weights, "curve_degree": np.int64(tp.curve.degree),
     }
@@ -183,6 +187,15 @@ def write_run(
     with atomic_open(written["job"], "w") as fh:
         fh.write(job_toml(config))
     return written
+
+
+def _lattice_arrays(lattice: Lattice | None) -> dict[str, np.ndarray]:
+    """The planar path's lattice as ``run.npz`` arrays (empty arrays: the dwell points have none)."""
+    if lattice is None:
+        return {"plan_lattice_basis": np.zeros((0, 2)), "plan_lattice_origin": np.zeros(0),
+                "plan_lattice_steps": np.zeros((0, 2), np.int64)}
+    return {"plan_lattice_basis": lattice.basis, "plan_lattice_origin": lattice.origin,
+            "plan_lattice_steps": lattice.neighbour_offsets}
 
 
 def schedule_arrays(schedule: SampleSchedule) -> dict[str, np.ndarray]:
@@ -443,10 +456,18 @@ class RunData:
         uv, ij, pieces, unreached, h, origin, rot = self._need(
             "plan_uv", "plan_ij", "plan_pieces", "plan_unreached", "plan_spacing", "plan_origin", "plan_rotation")
         p = self.section("plan")
+        stats = dict(p.get("stats") or {})
+        if self.schema < 3:  # every planner of formats 0-2 planned on the square grid; on_grid was a figure
+            lattice, only = Lattice.square(float(h), origin, float(rot)), bool(stats.pop("on_grid", True))
+        else:
+            basis, lorigin, steps, only = self._need(
+                "plan_lattice_basis", "plan_lattice_origin", "plan_lattice_steps", "plan_dwell_points_only")
+            lattice = Lattice(basis, lorigin, steps) if basis.size else None
         return PlanarPath(uv, ij, float(h), origin=origin, rotation=float(rot), pattern=str(p.get("pattern", "unknown")),
                           pieces=pieces, unreached=unreached.reshape(-1, 2),
                           n_inside=int(len(uv) + len(unreached.reshape(-1, 2))),
-                          provenance=self._provenance("plan", "plan"), stats=dict(p.get("stats") or {}))
+                          provenance=self._provenance("plan", "plan"), stats=stats, lattice=lattice,
+                          dwell_points_only=bool(only))
 
     @cached_property
     def surface_path(self) -> SurfacePath:
@@ -488,9 +509,21 @@ class RunData:
         if not isinstance(period, (int, float)):
             raise InputError(f"{self.folder / SUMMARY_FILE} lacks smooth.period_ms.",
                              "Run the job again with `polishpath plan --config DIR/job.toml -o DIR`.")
-        return ToolPath(NurbsCurve(int(deg), knots, cp, w), dp, smp, spar, feed, float(period), self.surface_path,
-                        provenance=self._provenance("smooth", "smooth"), stats=dict(sm.get("stats") or {}),
-                        dwell_times=dt if dt.size else None, schedule=schedule)
+        stats = dict(sm.get("stats") or {})
+        if self.schema < 3 and "sample_pieces" not in self.arrays:  # formats 0-2: figures of summary.json
+            spieces, pparams = stats.pop("sample_pieces", None), stats.pop("piece_params", None)
+            if spieces is None or pparams is None:
+                self._need("sample_pieces", "piece_params")
+        else:
+            spieces, pparams = self._need("sample_pieces", "piece_params")
+        try:
+            return ToolPath(NurbsCurve(int(deg), knots, cp, w), dp, smp, spar, feed, float(period), self.surface_path,
+                            provenance=self._provenance("smooth", "smooth"), stats=stats,
+                            dwell_times=dt if dt.size else None, schedule=schedule, sample_pieces=spieces,
+                            piece_params=pparams)
+        except ParameterError as e:  # pieces that do not fit the samples: the folder is broken
+            raise InputError(f"{self.folder} holds a tool path whose pieces do not fit it ({e.message})",
+                             "Run the job again with `polishpath plan --config DIR/job.toml -o DIR`.") from e
 
 
 def read_run(folder: str | Path) -> RunData:

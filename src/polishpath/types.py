@@ -22,6 +22,7 @@ import numpy as np
 
 from ._version import __version__
 from .errors import ExportError, ParameterError
+from .pathops import DIRECTION_STEPS
 
 
 def _is_frozen(a, dtype) -> bool:
@@ -303,15 +304,77 @@ class Flattening:
 
 
 @dataclass(frozen=True)
+class Lattice:
+    """The lattice of a set of dwell points: ``uv = origin + basis @ ij`` for integer indices ``ij``.
+
+    A planner that walks index steps (the paper's square grid and its 8
+    neighbours) has one; a set of points without one (a blue-noise set) has
+    none, and its :class:`PlanarPath` says so with ``lattice=None``.
+
+    Attributes
+    ----------
+    basis : (2, 2) float64
+        The two lattice vectors in the plane as columns, mm (the square grid's:
+        ``spacing * R(rotation)``).
+    origin : (2,) float64
+        Plane position of index (0, 0), mm.
+    neighbour_offsets : (K, 2) int64
+        The index steps a walk over the lattice may take, none (0, 0) (the square
+        grid's 8 neighbours in ``pathops.DIRECTION_STEPS`` order).
+    """
+
+    basis: np.ndarray
+    origin: np.ndarray
+    neighbour_offsets: np.ndarray
+
+    def __post_init__(self):
+        basis = _frozen_array(self.basis, np.float64, 2, 2, "Lattice.basis")
+        origin = _frozen_array(self.origin, np.float64, 1, None, "Lattice.origin")
+        steps = _frozen_array(self.neighbour_offsets, np.int64, 2, 2, "Lattice.neighbour_offsets")
+        hint = "Build the square grid's with Lattice.square(spacing, origin, rotation)."
+        if basis.shape != (2, 2) or origin.shape != (2,) or not (np.isfinite(basis).all() and np.isfinite(origin).all()):
+            raise ParameterError(f"Lattice: basis must be a finite (2, 2) array and origin a finite (2,) one, got "
+                                 f"{basis.shape} and {origin.shape}.", hint)
+        if not abs(np.linalg.det(basis)) > 0:
+            raise ParameterError("Lattice: the basis vectors are parallel (determinant 0): they span no plane.", hint)
+        if len(steps) == 0 or (steps == 0).all(axis=1).any() or len(np.unique(steps, axis=0)) != len(steps):
+            raise ParameterError(f"Lattice: neighbour_offsets must be distinct non-zero index steps, got "
+                                 f"{steps.tolist()}.", hint)
+        object.__setattr__(self, "basis", basis)
+        object.__setattr__(self, "origin", origin)
+        object.__setattr__(self, "neighbour_offsets", steps)
+
+    @classmethod
+    def square(cls, spacing: float, origin=(0.0, 0.0), rotation: float = 0.0) -> Lattice:
+        """The square grid of ``spacing`` mm, turned by ``rotation`` radians (counter-clockwise), with index
+        (0, 0) at ``origin`` (2,) mm, and its 8 neighbours (``uv = origin + R(rotation) @ (ij * spacing)``)."""
+        c, s = np.cos(rotation), np.sin(rotation)
+        return cls(float(spacing) * np.array([[c, -s], [s, c]]), origin, DIRECTION_STEPS)
+
+    def to_uv(self, ij: np.ndarray) -> np.ndarray:
+        """Plane positions (n, 2) mm of the indices ``ij`` (n, 2)."""
+        return self.origin + np.asarray(ij, dtype=np.float64) @ self.basis.T
+
+    def is_step(self, dij: np.ndarray) -> np.ndarray:
+        """(n,) bool: which index steps ``dij`` (n, 2) are among the neighbour offsets."""
+        d = np.asarray(dij, dtype=np.int64).reshape(-1, 2)
+        out = np.zeros(len(d), dtype=bool)
+        for a, b in self.neighbour_offsets:  # K passes over n steps: no (n, K) temporary at 10^7 steps
+            out |= (d[:, 0] == a) & (d[:, 1] == b)
+        return out
+
+
+@dataclass(frozen=True)
 class PlanarPath:
-    """A tool path through dwell points on a square grid in the plane.
+    """A tool path through dwell points in the plane (today on a square grid).
 
     Attributes
     ----------
     uv : (N, 2) float64
-        Dwell points in path order, mm, in the plane of the region.
+        Path points in path order, mm, in the plane of the region.
     ij : (N, 2) int64
-        Integer grid indices of each dwell point: ``uv = origin + R(rotation) @ (ij * spacing)``.
+        Integer grid indices of each point: ``uv = origin + R(rotation) @ (ij * spacing)`` (the
+        nearest index for a point off the grid).
     spacing : float
         Grid spacing in the plane, mm.
     origin : (2,) float64
@@ -332,6 +395,14 @@ class PlanarPath:
     provenance : Provenance
     stats : dict
         Figures the planner measured (iterations, turnarounds, time ...).
+    lattice : Lattice or None
+        The lattice of the dwell points (the planners' square grid: ``Lattice.square(spacing,
+        origin, rotation)``), whose neighbour steps are the walk's own moves; None: the dwell
+        points have no lattice (and every step within a piece is a move of the walk).
+    dwell_points_only : bool
+        True when every path point is a dwell point of the set; False for a path that also
+        runs through other points (the spiral's points off the grid, a maze's points over
+        the boundary).
     """
 
     uv: np.ndarray
@@ -345,8 +416,17 @@ class PlanarPath:
     n_inside: int = -1
     provenance: Provenance = field(default_factory=lambda: Provenance("plan", "unknown"))
     stats: dict[str, Any] = field(default_factory=dict)
+    lattice: Lattice | None = None
+    dwell_points_only: bool = True
 
     def __post_init__(self):
+        if self.lattice is not None and not isinstance(self.lattice, Lattice):
+            raise ParameterError(f"PlanarPath.lattice must be a Lattice or None, got {type(self.lattice).__name__}.",
+                                 "Pass Lattice.square(spacing, origin, rotation) for the square grid, None for none.")
+        if not isinstance(self.dwell_points_only, (bool, np.bool_)):
+            raise ParameterError(f"PlanarPath.dwell_points_only must be True or False, got {self.dwell_points_only!r}.",
+                                 "Say whether every path point is a dwell point.")
+        object.__setattr__(self, "dwell_points_only", bool(self.dwell_points_only))
         uv = _frozen_array(self.uv, np.float64, 2, 2, "uv")
         object.__setattr__(self, "uv", uv)
         object.__setattr__(self, "ij", _frozen_array(self.ij, np.int64, 2, 2, "ij"))
@@ -581,6 +661,15 @@ class ToolPath:
         short lists only; per-point data lives in the array fields).
     dwell_times : (N,) float64 or None
         Time the schedule spends around each dwell point, s.
+    sample_pieces : (K + 1,) int64, keyword, required
+        Sample offsets of the K continuous pieces (the planar path's pieces): piece k is
+        ``samples[sample_pieces[k]:sample_pieces[k + 1]]``; the tool lifts between pieces.
+        ``sample_pieces[-1]`` is the sample count (also where the sample arrays are empty
+        and the schedule regenerates them).
+    piece_params : (K + 1,) float64, keyword, required
+        Curve parameter where each piece starts, the curve's end last: piece k runs
+        ``[piece_params[k], piece_params[k + 1])`` (``SampleSchedule.piece_params`` holds the
+        ranges the interpolator runs, just below the next start).
     schedule : SampleSchedule or None
         What regenerates the samples bit for bit from ``curve`` (set by
         ``smooth``; ``polishpath.smooth.iter_sample_chunks`` streams them);
@@ -601,6 +690,8 @@ class ToolPath:
     stats: dict[str, Any] = field(default_factory=dict)
     dwell_times: np.ndarray | None = None
     schedule: SampleSchedule | None = None
+    sample_pieces: np.ndarray = field(kw_only=True)
+    piece_params: np.ndarray = field(kw_only=True)
 
     def __post_init__(self):
         if self.schedule is not None and not isinstance(self.schedule, SampleSchedule):
@@ -612,3 +703,30 @@ class ToolPath:
         object.__setattr__(self, "samples", _frozen_array(self.samples, np.float64, 2, 3, "samples"))
         object.__setattr__(self, "sample_params", _frozen_array(self.sample_params, np.float64, 1, None, "sample_params"))
         object.__setattr__(self, "feed_mm_min", _frozen_array(self.feed_mm_min, np.float64, 1, None, "feed_mm_min"))
+        self._set_pieces()
+
+    def _set_pieces(self) -> None:
+        """Check and freeze ``sample_pieces`` / ``piece_params`` against the samples, schedule and dwell pieces."""
+        sp = _frozen_array(self.sample_pieces, np.int64, 1, None, "ToolPath.sample_pieces")
+        pp = _frozen_array(self.piece_params, np.float64, 1, None, "ToolPath.piece_params")
+        m = len(self.samples)
+        planar = getattr(self.surface_path, "planar", None)
+        k = len(planar.pieces) - 1 if planar is not None else len(sp) - 1
+        sch = self.schedule
+        problem = None
+        if len(sp) < 2 or sp[0] != 0 or np.any(np.diff(sp) < 0):
+            problem = f"sample_pieces must be increasing offsets from 0, at least [0, M]; got {sp.tolist()[:6]}"
+        elif len(sp) != k + 1 or len(pp) != k + 1:
+            problem = (f"the path has {k} piece(s): sample_pieces and piece_params need {k + 1} values each, got "
+                       f"{len(sp)} and {len(pp)}")
+        elif m and sp[-1] != m:
+            problem = f"sample_pieces ends at {sp[-1]}, but the path holds {m} samples"
+        elif sch is not None and not np.array_equal(sp, sch.sample_pieces):
+            problem = "sample_pieces differ from the schedule's"
+        elif not (np.isfinite(pp).all() and np.all(np.diff(pp) > 0)):
+            problem = f"piece_params must be increasing curve parameters, got {pp.tolist()[:6]}"
+        if problem is not None:
+            raise ParameterError(f"ToolPath: {problem}.", "Build the ToolPath with polishpath.smooth.smooth() (or give "
+                                 "one sample offset and one start parameter per piece, the totals last).")
+        object.__setattr__(self, "sample_pieces", sp)
+        object.__setattr__(self, "piece_params", pp)

@@ -98,9 +98,7 @@ def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
     dp = np.asarray(tool_path.dwell_params, dtype=np.float64)
     sp = np.asarray(tool_path.sample_params, dtype=np.float64)
     T = float(tool_path.period_ms) / 1000.0
-    st = tool_path.stats or {}
-    spieces = np.asarray(st.get("sample_pieces", [0, len(sp)]), dtype=np.int64)
-    ppar = np.asarray(st.get("piece_params", [sp[0], sp[-1]]), dtype=np.float64)
+    spieces, ppar = tool_path.sample_pieces, tool_path.piece_params
     out = np.zeros(len(dp))
     for k in range(len(spieces) - 1):
         s = sp[spieces[k]:spieces[k + 1]]

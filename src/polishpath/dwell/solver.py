@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -294,9 +294,8 @@ def solve_dwell(points_xy: np.ndarray, target: Target, tif, t_min_s: np.ndarray,
         sol = _solve_fft(pts, cen, np.asarray(grid_ij), lat, target, tif, tmin, spacing_mm, smoothness, max_iter, tol)
     else:
         sol = _solve_lsq(pts, cen, target, tif, tmin, spacing_mm, smoothness, solve_pitch_mm, max_iter, tol)
-    sol.stats["seconds"] = time.perf_counter() - t0
-    sol.stats["bound_active_share"] = float(np.mean(sol.times_s <= tmin * (1 + 1e-9) + 1e-15))
-    return sol
+    return replace(sol, stats={**sol.stats, "seconds": time.perf_counter() - t0,
+                               "bound_active_share": float(np.mean(sol.times_s <= tmin * (1 + 1e-9) + 1e-15))})
 
 
 def _coarse_target(target: Target, pitch: float) -> tuple[Grid, np.ndarray, np.ndarray]:

@@ -31,8 +31,8 @@ DEFAULT_CHUNK_SAMPLES = 1 << 18
 
 
 def piece_offsets(tool_path: ToolPath) -> np.ndarray:
-    """(P + 1,) sample offsets of the pieces (``stats["sample_pieces"]``, else one piece)."""
-    return np.asarray(tool_path.stats.get("sample_pieces", [0, len(tool_path.samples)]), dtype=np.int64)
+    """(P + 1,) sample offsets of the pieces (``ToolPath.sample_pieces``)."""
+    return tool_path.sample_pieces
 
 
 def dwell_offsets(tool_path: ToolPath) -> np.ndarray:

@@ -133,7 +133,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
         margin = used + 1.5 * excursion * max(1.0, sp.planar_spacing / cfg.spacing)
     boundary = dict(boundary_margin_mm=used, boundary_tol_mm=float(cfg.boundary_tol_mm),
                     boundary_margin_auto=cfg.margin is None, boundary_replans=replan)
-    tool.stats.update(boundary)
+    tool = dataclasses.replace(tool, stats={**tool.stats, **boundary})
     with progress.stage("path metrics", timings, "metrics"):
         pm = path_metrics(planar, region)
     prediction = None

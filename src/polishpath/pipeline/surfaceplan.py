@@ -7,7 +7,7 @@ the paper reproduction, the simulation's pattern comparison and the benchmarks c
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -160,15 +160,17 @@ def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
 
     Moves that are not grid steps (a raster's connecting chord along the
     boundary, the jump between pieces) are transit moves of the pattern, not
-    dwell steps, so they do not set the spacing. Off-grid patterns (spiral):
-    every step within a piece counts.
+    dwell steps, so they do not set the spacing: where every path point is a
+    dwell point of a lattice, only the lattice's neighbour steps count; else
+    (the spiral's points off the grid, a set without a lattice) every step
+    within a piece counts.
     """
     d = np.linalg.norm(np.diff(mapped.xyz, axis=0), axis=1)
     if len(d) == 0:
         return 0.0
     valid = step_mask(len(mapped.xyz), planar.pieces)
-    if planar.stats.get("on_grid", True):
-        valid &= np.abs(np.diff(planar.ij, axis=0)).max(axis=1) <= 1
+    if planar.lattice is not None and planar.dwell_points_only:
+        valid &= planar.lattice.is_step(np.diff(planar.ij, axis=0))
     return float(d[valid].max()) if valid.any() else 0.0
 
 
@@ -245,6 +247,7 @@ def _honour_surface_spacing(
         best = (planar, map_to_surface(flat, planar, surface_spacing=spacing), h)
         tries += 1
     planar, mapped, h = best
-    mapped.stats.update(planar_spacing=float(h), step_reduction_factor=float(h / spacing), replans=tries,
-                        grid_step_max=_grid_step_max(planar, mapped))
+    figures = {"planar_spacing": float(h), "step_reduction_factor": float(h / spacing), "replans": tries,
+               "grid_step_max": _grid_step_max(planar, mapped)}
+    mapped = replace(mapped, stats={**mapped.stats, **figures})  # a new SurfacePath: frozen objects stay as made
     return planar, mapped, float(h)

@@ -327,7 +327,7 @@ def pattern_fractal(grid: DwellGrid, region: Region, *, seed: int, start: int, *
              "smoothing": "uniform cubic B-spline, dwell points as control points",
              "smoothing_dev_max": dev["dev_max"], "smoothing_dev_mean": dev["dev_mean"],
              "smoothing_dev_p95": dev["dev_p95"]}
-    return PatternResult(uv, grid.ij[order], pieces, True, stats)
+    return PatternResult(uv, grid.ij[order], pieces, True, stats, lattice=grid.lattice)
 
 
 def pattern_hilbert(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
@@ -354,4 +354,4 @@ def pattern_hilbert(grid: DwellGrid, region: Region, *, seed: int, start: int, *
     seq = hilbert_sequence(k, int(seed) % 8) + lo
     order, pieces = clip_grid_sequence(grid, seq, chords=False)
     stats = {"left_out": int(grid.n - len(order)), "square_side": int(2**k), "symmetry": int(seed) % 8}
-    return PatternResult(grid.uv[order], grid.ij[order], pieces, True, stats)
+    return PatternResult(grid.uv[order], grid.ij[order], pieces, True, stats, lattice=grid.lattice)

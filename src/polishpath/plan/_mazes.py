@@ -352,7 +352,7 @@ def pattern_unicursal(grid: DwellGrid, region: Region, *, seed: int, start: int,
     Returns
     -------
     PatternResult
-        ``uv`` (N, 2) mm, dwell points only (``on_grid``); one piece per maze
+        ``uv`` (N, 2) mm, dwell points only (``dwell_points_only``); one piece per maze
         component; ``stats``: ``left_out`` (dwell points in no usable cell, by
         design), ``maze_cells``, ``maze_components``, ``passages``, ``phase``.
     """
@@ -377,7 +377,7 @@ def pattern_unicursal(grid: DwellGrid, region: Region, *, seed: int, start: int,
     if cnt == 0:
         return PatternResult(np.zeros((0, 2)), np.zeros((0, 2), np.int64), np.array([0, 0], np.int64), True,
                              {"left_out": grid.n, "maze_cells": 0, "maze_components": 0, "passages": 0,
-                              "phase": [int(x) for x in ph]})
+                              "phase": [int(x) for x in ph]}, lattice=grid.lattice)
     cells, ea, eb, kind = _cells_and_passages(ok, lo, east, north)
     ij, pieces, n_tree = _stc_path(cells, ph, ea, eb, kind, tree, seed, grid.ij[start])
     order = _lookup(grid, ij)
@@ -386,7 +386,7 @@ def pattern_unicursal(grid: DwellGrid, region: Region, *, seed: int, start: int,
     stats = {"left_out": int(grid.n - len(order)), "maze_cells": len(cells),
              "maze_components": int(len(pieces) - 1), "passages": n_tree, "phase": [int(x) for x in ph],
              "tree": tree}
-    return PatternResult(grid.uv[order], grid.ij[order], pieces.astype(np.int64), True, stats)
+    return PatternResult(grid.uv[order], grid.ij[order], pieces.astype(np.int64), True, stats, lattice=grid.lattice)
 
 
 def _scan_crossings(grid: DwellGrid, y: float) -> np.ndarray:
@@ -428,7 +428,7 @@ def pattern_maze(grid: DwellGrid, region: Region, *, seed: int, start: int, tree
     -------
     PatternResult
         ``uv`` (N, 2) mm on grid positions, some of them outside the region
-        (``on_grid`` False: not every point is a dwell point); ``ij`` (N, 2);
+        (``dwell_points_only`` False: not every point is a dwell point); ``ij`` (N, 2);
         one piece per maze component (the path goes on over the boundary,
         it does not lift there). ``stats``: ``left_out`` (dwell points inside
         the region the path never visits), ``outside_points``,
@@ -466,7 +466,7 @@ def pattern_maze(grid: DwellGrid, region: Region, *, seed: int, start: int, tree
         return PatternResult(np.zeros((0, 2)), np.zeros((0, 2), np.int64), np.array([0, 0], np.int64), False,
                              {"left_out": grid.n, "outside_points": 0, "outside_steps": 0,
                               "outside_length_mm": 0.0, "area_outside_mm2": 0.0, "rows_clipped": clipped,
-                              "maze_cells": 0, "maze_components": 0})
+                              "maze_cells": 0, "maze_components": 0}, lattice=grid.lattice)
     allt = np.ones_like(ok)
     cells, ea, eb, kind = _cells_and_passages(ok, lo, allt, allt)
     ij, pieces, n_tree = _stc_path(cells, ph, ea, eb, kind, tree, seed, grid.ij[start])
@@ -475,4 +475,4 @@ def pattern_maze(grid: DwellGrid, region: Region, *, seed: int, start: int, tree
     stats = {"left_out": int(grid.n - np.count_nonzero(k >= 0)), **_outside_figures(grid, uv, pieces),
              "rows_clipped": int(clipped), "maze_cells": len(cells), "maze_components": int(len(pieces) - 1),
              "passages": n_tree, "tree": tree}
-    return PatternResult(uv, ij, pieces.astype(np.int64), False, stats)
+    return PatternResult(uv, ij, pieces.astype(np.int64), False, stats, lattice=grid.lattice)

@@ -11,7 +11,7 @@ import numpy as np
 from .._version import __version__
 from ..errors import ParameterError
 from ..provenance import resolve_seed
-from ..types import PlanarPath, Provenance, Region
+from ..types import Lattice, PlanarPath, Provenance, Region
 from . import baselines
 from .checks import check_index, check_options, check_point, check_region, check_seed
 from .dwell import DwellGrid, check_grid, dwell_grid
@@ -27,20 +27,25 @@ class PatternResult:
     uv : (N, 2) float64
         Path points in order, mm.
     ij : (N, 2) int64
-        Grid index of each point (nearest index when ``on_grid`` is False).
+        Grid index of each point (nearest index when ``dwell_points_only`` is False).
     pieces : (K+1,) int64
         Offsets of the continuous pieces.
-    on_grid : bool
-        True when every point is a dwell point of the grid.
+    dwell_points_only : bool
+        True when every point is a dwell point (of the grid); False for a path through
+        other points too (``PlanarPath.dwell_points_only``).
     stats : dict
         Pattern-specific figures.
+    lattice : Lattice or None, keyword, required
+        The dwell points' lattice (``grid.lattice`` for the grid), None for a set without one
+        (``PlanarPath.lattice``).
     """
 
     uv: np.ndarray
     ij: np.ndarray
     pieces: np.ndarray
-    on_grid: bool = True
+    dwell_points_only: bool = True
     stats: dict[str, Any] = field(default_factory=dict)
+    lattice: Lattice | None = field(kw_only=True)
 
 
 #: A pattern: ``fn(grid, region, *, seed, start) -> PatternResult`` where
@@ -61,7 +66,7 @@ def check_pattern_call(grid: DwellGrid, seed, start) -> tuple[int, int]:
 
 
 def _on_grid(grid: DwellGrid, order: np.ndarray, pieces: np.ndarray, stats: dict) -> PatternResult:
-    return PatternResult(grid.uv[order], grid.ij[order], pieces, True, stats)
+    return PatternResult(grid.uv[order], grid.ij[order], pieces, True, stats, lattice=grid.lattice)
 
 
 def _pattern_pseudorandom(grid: DwellGrid, region: Region, *, seed: int, start: int, **options) -> PatternResult:
@@ -87,7 +92,7 @@ def _pattern_spiral(grid: DwellGrid, region: Region, *, seed: int, start: int, *
     centre = grid.uv[start]
     rmax = float(np.hypot(*(np.asarray(region.outer) - centre).T).max())
     uv, pieces = baselines.archimedean_spiral(grid, centre, rmax)
-    return PatternResult(uv, baselines.nearest_ij(grid, uv), pieces, False, {})
+    return PatternResult(uv, baselines.nearest_ij(grid, uv), pieces, False, {}, lattice=grid.lattice)
 
 
 #: Registered patterns by name. Add a peer with :func:`register_pattern`.
@@ -187,7 +192,7 @@ def plan(
     PlanarPath
         ``uv`` (N, 2) mm, ``ij`` (N, 2), ``pieces``, ``unreached`` (dwell points
         not visited, mm), ``n_inside``, provenance and ``stats`` (including
-        ``on_grid``, ``seconds``, ``grid_seconds``).
+        ``seconds``, ``grid_seconds``); ``lattice`` (the grid's) and ``dwell_points_only``.
 
     Raises
     ------
@@ -222,7 +227,6 @@ def plan(
         visited[pos[grid.dense_id[pos] == dense]] = True
     stats = dict(res.stats)
     stats.update(
-        on_grid=bool(res.on_grid),
         n_pieces=int(len(res.pieces) - 1),
         start_index=[int(x) for x in grid.ij[start_idx]],
         grid_seconds=t1 - t0,
@@ -250,4 +254,6 @@ def plan(
             "plan", pattern, params, seed if pattern in RANDOM_PATTERNS else None, __version__
         ),
         stats=stats,
+        lattice=res.lattice,
+        dwell_points_only=bool(res.dwell_points_only),
     )

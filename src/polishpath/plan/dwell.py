@@ -29,7 +29,7 @@ import shapely
 
 from ..errors import ParameterError, SpacingTooLargeError
 from ..pathops import DIRECTION_NAMES, DIRECTION_STEPS
-from ..types import Region
+from ..types import Lattice, Region
 from .checks import check_number, check_point, check_points, check_region
 
 #: 8 directions in grid index space, counter-clockwise from +i (east).
@@ -90,6 +90,11 @@ class DwellGrid:
     def n(self) -> int:
         """Number of dwell points."""
         return int(self.ij.shape[0])
+
+    @property
+    def lattice(self) -> Lattice:
+        """The grid as a :class:`~polishpath.types.Lattice` (its 8 neighbours are the walks' steps)."""
+        return Lattice.square(self.spacing, self.origin, self.rotation)
 
     def to_uv(self, ij: np.ndarray) -> np.ndarray:
         """Plane positions (k, 2) mm of grid indices ``ij`` (k, 2)."""

@@ -166,7 +166,7 @@ def dwell_point_times(tool_path: ToolPath, seg_times: np.ndarray) -> np.ndarray:
     sp = tool_path.surface_path
     n = len(sp.xyz)
     dpieces = np.asarray(sp.planar.pieces if sp.planar is not None else [0, n])
-    spieces = np.asarray(tool_path.stats.get("sample_pieces", [0, len(tool_path.samples)]))
+    spieces = tool_path.sample_pieces
     u = tool_path.sample_params
     out = np.empty(n)
     for k in range(len(dpieces) - 1):
@@ -211,7 +211,7 @@ def schedule_feeds(tool_path: ToolPath, machine: MachineProfile) -> tuple[ToolPa
     """
     s = tool_path.samples
     feed = tool_path.feed_mm_min
-    spieces = np.asarray(tool_path.stats.get("sample_pieces", [0, len(s)]))
+    spieces = tool_path.sample_pieces
     amax = np.asarray(machine.max_acceleration_mm_s2, dtype=np.float64)
     vmax = np.asarray(machine.max_velocity_mm_min, dtype=np.float64) / 60.0
     at = float(machine.max_tangential_acceleration_mm_s2 or 0.0)

@@ -108,16 +108,8 @@ def _dwell_plane_points(sp: SurfacePath, plane: str) -> np.ndarray:
 
 
 def _sample_pieces(tp: ToolPath) -> np.ndarray:
-    """Offsets of the machine samples of each piece (``stats["sample_pieces"]``, else from the curve parameters)."""
-    m = len(tp.samples)
-    sp = tp.stats.get("sample_pieces")
-    if sp is not None:
-        return piece_offsets(np.asarray(sp), m)
-    pp = tp.stats.get("piece_params")
-    if pp is not None and len(pp) > 2:
-        cuts = np.searchsorted(np.asarray(tp.sample_params), np.asarray(pp)[1:-1], side="left")
-        return piece_offsets(np.concatenate([[0], cuts, [m]]), m)
-    return piece_offsets(None, m)
+    """Offsets of the machine samples of each piece (``ToolPath.sample_pieces``, checked against the samples)."""
+    return piece_offsets(tp.sample_pieces, len(tp.samples))
 
 
 def with_samples(tool_path: ToolPath) -> ToolPath:

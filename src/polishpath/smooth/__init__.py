@@ -126,7 +126,7 @@ def piece_curves(curve: NurbsCurve, piece_params: np.ndarray) -> list[NurbsCurve
     curve : NurbsCurve
         From :func:`smooth` (``ToolPath.curve``).
     piece_params : (K + 1,) float
-        ``ToolPath.stats["piece_params"]``.
+        ``ToolPath.piece_params``: where each piece starts, the curve's end last.
 
     Returns
     -------
@@ -315,8 +315,9 @@ def smooth(
         figures of :func:`curve_deviation`, ``boundary_excursion_max_mm`` (how far
         the farthest sample lies beyond the part's rim or over a hole, mm,
         :func:`boundary_excursion`; None without ``surface``) and
-        ``boundary_excursion_samples`` (how many lie beyond it at all), ``piece_params`` (K+1,) and
-        ``sample_pieces`` (K+1,) offsets; the times per dwell point are ``ToolPath.dwell_times``;
+        ``boundary_excursion_samples`` (how many lie beyond it at all); the pieces are
+        ``ToolPath.sample_pieces`` (K+1,) sample offsets and ``ToolPath.piece_params`` (K+1,) curve
+        parameters; the times per dwell point are ``ToolPath.dwell_times``;
         ``schedule``: the :class:`~polishpath.types.SampleSchedule` that regenerates the samples.
     """
     t0 = time.perf_counter()
@@ -434,8 +435,6 @@ def smooth(
         dwell_through_max=through,
         n_dwell_points=int(n),
         n_control_points=int(len(curve.control_points)),
-        piece_params=off.tolist(),
-        sample_pieces=spieces,
         dwell_time_source=time_source,
         dwell_time_total_s=float(times.sum()),
         seconds=time.perf_counter() - t0,
@@ -456,4 +455,4 @@ def smooth(
     return ToolPath(curve=curve, dwell_params=dwell_params, samples=all_samples,
                     sample_params=all_params, feed_mm_min=all_feeds,
                     period_ms=float(period_ms), surface_path=surface_path, provenance=prov, stats=stats,
-                    dwell_times=times, schedule=schedule)
+                    dwell_times=times, schedule=schedule, sample_pieces=schedule.sample_pieces, piece_params=off)

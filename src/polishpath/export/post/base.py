@@ -245,7 +245,7 @@ def planned_segment_times(tool_path: ToolPath) -> np.ndarray:
     dt = np.zeros(len(s))
     if len(s) > 1:
         dt[1:] = np.linalg.norm(np.diff(s, axis=0), axis=1) * 60.0 / np.maximum(tool_path.feed_mm_min[1:], 1e-300)
-    dt[np.asarray(tool_path.stats.get("sample_pieces", [0, len(s)]))[:-1]] = 0.0
+    dt[tool_path.sample_pieces[:-1]] = 0.0
     return dt
 
 

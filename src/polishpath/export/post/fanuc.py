@@ -91,8 +91,7 @@ class FanucPost(GcodePost):
 
         sp = tool_path.surface_path
         dpieces = dwell_offsets(tool_path)
-        pp = np.asarray(tool_path.stats.get("piece_params", [tool_path.curve.knots[0], tool_path.curve.knots[-1]]))
-        curves = piece_curves(tool_path.curve, pp)
+        curves = piece_curves(tool_path.curve, tool_path.piece_params)
         out = []
         for k, c in enumerate(curves):
             a, b = dpieces[k], dpieces[k + 1]
