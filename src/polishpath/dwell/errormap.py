@@ -211,8 +211,9 @@ def read_error_map(file, *, height_unit: str | None = None, lateral_unit: str | 
     -------
     ErrorMap
         Centred on the map frame's origin unless the file gives coordinates (``x y z`` text).
-        Row ``i`` of a grid is at ``y = origin + i dy`` (rows go up in y); a ``.datx`` file
-        stores its top row first, so its rows are flipped.
+        Row ``i`` of a grid is at ``y = origin + i dy`` (rows go up in y); an interferometer's
+        file (``.datx``, MetroPro ``.dat``, Zygo ASCII, 4D ``.h5``) stores its top row first, so
+        its rows are flipped.
     """
     p = Path(file)
     if p.suffix.lower() == ".toml":
@@ -220,6 +221,7 @@ def read_error_map(file, *, height_unit: str | None = None, lateral_unit: str | 
 
         return zernike_error_map(read_toml(p), source=str(p), height_unit=height_unit)
     from ..psd import read_measurement
+    from ..psd.io import TOP_ROW_FIRST
 
     m = read_measurement(p, lateral_unit=lateral_unit, height_unit=height_unit, dx_mm=dx_mm)
     if m.kind != "map":
@@ -232,8 +234,9 @@ def read_error_map(file, *, height_unit: str | None = None, lateral_unit: str | 
     origin = m.params.get("origin_mm")
     params = {k: v for k, v in m.params.items() if k not in ("header", "note")}
     z = m.z_nm
-    if params.get("format") == "datx":
-        # a .datx stores its rows as the camera sees them, top row (largest y) first; the map's rows go up in y
+    if params.get("format") in TOP_ROW_FIRST:
+        # an interferometer's file stores its rows as the camera sees them, top row (largest y) first;
+        # the map's rows go up in y
         z = z[::-1]
         params["rows"] = "flipped: the file's first row is the map's largest y"
     if origin is not None:

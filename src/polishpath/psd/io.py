@@ -1,4 +1,5 @@
-"""Reading measured profiles and maps: plain text, CSV and Zygo ``.datx``.
+"""Reading measured profiles and maps: plain text, CSV, Zygo ``.datx`` (and, through
+:mod:`polishpath.psd.instruments`, Zygo MetroPro ``.dat`` / ASCII and 4D Technology ``.h5``).
 
 Everything is converted to nanometres (heights) and millimetres (lateral).
 Units come from the file when it says them (a ``# units`` comment, a column
@@ -20,6 +21,10 @@ import numpy as np
 
 from .. import progress
 from ..errors import MeasurementFileError, require
+from . import instruments
+
+#: formats that store the top row (the map's largest y) first: the error-map reader flips them
+TOP_ROW_FIRST = ("datx", "metropro-dat", "zygo-ascii", "4d-h5")
 
 _TO_MM = {"m": 1e3, "mm": 1.0, "um": 1e-3, "µm": 1e-3, "micron": 1e-3, "nm": 1e-6}
 _TO_NM = {"m": 1e9, "mm": 1e6, "um": 1e3, "µm": 1e3, "micron": 1e3, "nm": 1.0, "a": 0.1, "angstrom": 0.1}
@@ -92,8 +97,9 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
     Parameters
     ----------
     file : str or Path
-        ``.datx`` (Zygo HDF5, needs h5py), ``.csv``, or plain text
-        (``.txt``/``.dat``/``.xyz``/``.asc``/other). Text layouts, by column count:
+        ``.datx`` (Zygo HDF5, needs h5py), a Zygo MetroPro binary ``.dat``, a Zygo ASCII ``.asc``,
+        a 4D Technology ``.h5`` (see :mod:`polishpath.psd.instruments`), ``.csv``, or plain text
+        (``.txt``/``.dat``/``.xyz``/``.asc``/``.prf``/other). Text layouts, by column count:
         2 columns ``x z`` = profile; 3 columns ``x y z`` = point list on a
         regular grid; more columns = a grid of heights (one row per line, needs
         ``dx_mm`` or a ``# dx: <value> <unit>`` comment).
@@ -120,8 +126,18 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
             _unit_factor(unit, table, what)  # an unknown unit is refused before reading
     for name, v in (("dx_mm", dx_mm), ("dy_mm", dy_mm)):
         _check_spacing(v, name, "the argument")
-    if path.suffix.lower() == ".datx":
+    suffix = path.suffix.lower()
+    if suffix == ".datx":
         m = _read_datx(path, dx_mm=dx_mm, lateral_unit=lateral_unit, height_unit=height_unit)
+    elif (suffix == ".dat" and instruments.is_metropro_dat(path)) or (suffix == ".asc" and instruments.is_zygo_ascii(path)) \
+            or suffix in (".h5", ".hdf5"):
+        read = {".dat": instruments.read_metropro_dat, ".asc": instruments.read_zygo_ascii}.get(suffix,
+                                                                                              instruments.read_4d_h5)
+        z, dx, params = read(path, dx_mm=dx_mm)
+        m = Measurement(z, dx, dx, "map", str(path), params)
+        if height_unit is not None or lateral_unit is not None:
+            progress.warn(f"{path.name} states its own units ({m.params['format']}: heights from the wavelength, "
+                          "pixel size from the header): the unit options are not used for it.")
     else:
         text = path.read_text(encoding="utf-8", errors="replace")
         m = _read_text(text, str(path), csv_like=path.suffix.lower() == ".csv", lateral_unit=lateral_unit,

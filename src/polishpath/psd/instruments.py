@@ -1,0 +1,271 @@
+"""Instruments' own files: Zygo MetroPro ``.dat`` (binary) and Zygo ASCII, 4D Technology HDF5.
+
+Each reader returns the map's heights in nm, its pixel size in mm and what it
+found (``params``), which :func:`polishpath.psd.read_measurement` makes a
+:class:`~polishpath.psd.io.Measurement`; invalid pixels are NaN (counted in ``params["n_nan"]``), and
+the rows in the file's order: all three store the camera's top row first (the
+largest y as the instrument displays the map), as the Zygo ``.datx`` does;
+:func:`polishpath.dwell.read_error_map` flips them so that rows go up in y
+(``params["rows"] = "top first"`` says so). The layouts follow the formats as
+the open readers document them (Zygo's MetroPro Reference Guide, Gwyddion's
+``metropro`` module, prysm's ``io``; for 4D, the open FizCam/4Sight readers);
+the parsing is written here because none of those is a small, maintained
+dependency for reading one array (prysm pulls in its optics stack, Gwyddion is
+a C application).
+
+Zygo MetroPro ``.dat`` (big-endian; header formats 1 and 2: 834 bytes, 3: 4096)
+    ``magic`` (0x881B036F / 70 / 71) at 0, ``header_format`` int16 at 4,
+    ``header_size`` int32 at 6; intensity: width, height, buckets uint16 at 52,
+    54, 56, its byte count int32 at 60; phase ("connected") data: width, height
+    uint16 at 68, 70, byte count int32 at 72; ``intf_scale_factor`` float32 at
+    164, ``wavelength_in`` (m) at 168, ``obliquity_factor`` at 176,
+    ``lateral_res`` (m per pixel, 0 when not calibrated) at 184;
+    ``phase_res`` int16 at 218 (0, 1, 2: R = 4096, 32768, 131072 counts per
+    wave); ``data_sign`` int16 at 232 (1: heights inverted). After the header
+    the intensity frames (uint16), then the phase as int32 rows; a count at or
+    above 2147483640 is "no data". Height (m) = count x scale factor x
+    obliquity x wavelength / R.
+Zygo ASCII (``.asc``: MetroPro's "Zygo ASCII Data File - Format 2")
+    Fourteen header lines, then ``#``; line 3 the intensity window (origin x,
+    y, width, height, buckets, range), line 4 the phase window (origin x, y,
+    width, height), line 8 ``source, intf_scale_factor, wavelength_in,
+    numeric_aperture, obliquity_factor, magnification, lateral_res,
+    time_stamp``, line 11's third number ``phase_res``. The data follow as
+    whitespace-separated integer counts: the intensity block, ``#``, the
+    phase block (row after row), ``#``; the counts and "no data" as in ``.dat``.
+4D Technology HDF5 (``.h5`` from 4Sight / 4D InSight)
+    The surface in ``measurement0/genraw/data`` (float32, waves), the
+    wavelength as the group's ``wavelength`` attribute (text such as
+    ``"632.8 nm"``, or a number of nm); pixels without data hold a huge
+    sentinel (> 1e38). The file does not carry a calibrated pixel size that
+    the open readers use: give it (``dx_mm`` / ``--dx`` / ``[error_map]
+    dx_mm``) unless the group has an ``xpix`` attribute with a unit
+    (``"0.12 mm"``).
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import MeasurementFileError, require
+
+#: MetroPro header magic numbers -> header format
+ZYGO_MAGIC = {0x881B036F: 1, 0x881B0370: 2, 0x881B0371: 3}
+#: phase_res -> counts per wave
+ZYGO_PHASE_RES = {0: 4096, 1: 32768, 2: 131072}
+#: a phase count at or above this is "no data"
+ZYGO_INVALID_PHASE = 2147483640
+#: 4D HDF5: a value above this is "no data" (float32's largest, written for masked pixels)
+FOURD_INVALID = 1e38
+
+_ROWS = "top first: the file's first row is the map's largest y"
+
+
+def is_metropro_dat(path: Path) -> bool:
+    """Whether ``path`` starts with a MetroPro ``.dat`` magic number."""
+    with open(path, "rb") as f:
+        head = f.read(4)
+    return len(head) == 4 and struct.unpack(">I", head)[0] in ZYGO_MAGIC
+
+
+def is_zygo_ascii(path: Path) -> bool:
+    """Whether ``path`` is a Zygo ASCII data file (its first line says so)."""
+    with open(path, "rb") as f:
+        head = f.read(64)
+    return head.lstrip().startswith(b"Zygo ASCII Data File")
+
+
+def _heights_from_counts(counts: np.ndarray, scale: float, obliquity: float, wavelength_m: float, phase_res: int,
+                         name: str) -> np.ndarray:
+    """Phase counts -> heights in nm, "no data" counts -> NaN."""
+    if phase_res not in ZYGO_PHASE_RES:
+        raise MeasurementFileError(f"{name}: unknown phase resolution code {phase_res} (0, 1 or 2 expected).",
+                                   "Is the file complete? Export it again from MetroPro or Mx.")
+    for what, v in (("wavelength", wavelength_m), ("interferometric scale factor", scale),
+                    ("obliquity factor", obliquity)):
+        if not (np.isfinite(v) and v > 0):
+            raise MeasurementFileError(f"{name}: the header's {what} is {v!r}, so its heights cannot be scaled.",
+                                       "Export the file again from MetroPro or Mx.")
+    z = counts.astype(np.float64)
+    invalid = counts >= ZYGO_INVALID_PHASE
+    z *= scale * obliquity * wavelength_m / ZYGO_PHASE_RES[phase_res] * 1e9
+    z[invalid] = np.nan
+    return z
+
+
+def _lateral(res_m: float, dx_mm: float | None, name: str) -> tuple[float, str]:
+    if dx_mm is not None:
+        return float(dx_mm), "argument"
+    if np.isfinite(res_m) and res_m > 0:
+        return float(res_m) * 1e3, "lateral_res"
+    raise MeasurementFileError(f"{name} does not state its lateral resolution (lateral_res is {res_m!r}).",
+                               "Pass the pixel size (dx_mm / --dx / [error_map] dx_mm) in mm.")
+
+
+def read_metropro_dat(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
+    """Read a Zygo MetroPro binary ``.dat`` file (layout in the module's docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+    dx_mm : float, optional
+        Pixel size, mm, instead of the header's ``lateral_res``.
+
+    Returns
+    -------
+    z_nm : (height, width) float64
+        Heights, nm; NaN where the instrument had no data; the rows as stored (top first).
+    dx_mm : float
+        Pixel size, mm (square pixels).
+    params : dict
+        Format, wavelength, phase resolution, where the pixel size came from, NaN count.
+    """
+    p = Path(path)
+    raw = p.read_bytes()
+    if len(raw) < 834 or struct.unpack_from(">I", raw, 0)[0] not in ZYGO_MAGIC:
+        raise MeasurementFileError(f"{p.name} is not a Zygo MetroPro .dat file (no MetroPro header).",
+                                   "A .dat of plain numbers is read as text only when it does not start like one.")
+    fmt = ZYGO_MAGIC[struct.unpack_from(">I", raw, 0)[0]]
+    hsize = struct.unpack_from(">i", raw, 6)[0]
+    ac_bytes = struct.unpack_from(">i", raw, 60)[0]
+    w, h = struct.unpack_from(">HH", raw, 68)
+    cn_bytes = struct.unpack_from(">i", raw, 72)[0]
+    scale, wl = struct.unpack_from(">ff", raw, 164)
+    obliquity = struct.unpack_from(">f", raw, 176)[0]
+    res_m = struct.unpack_from(">f", raw, 184)[0]
+    phase_res = struct.unpack_from(">h", raw, 218)[0]
+    sign = struct.unpack_from(">h", raw, 232)[0]
+    if w * h == 0:
+        raise MeasurementFileError(f"{p.name} holds no phase (height) data, only intensity.",
+                                   "Save the measurement with its phase data in MetroPro.")
+    start = hsize + ac_bytes
+    if cn_bytes != 4 * w * h or start + cn_bytes > len(raw) or hsize < 834:
+        raise MeasurementFileError(
+            f"{p.name}: the header promises {w} x {h} phase values ({cn_bytes} bytes) after {start} bytes, "
+            f"but the file has {len(raw)} bytes.", "Is the file complete? Copy it again from the instrument.")
+    counts = np.frombuffer(raw, dtype=">i4", count=w * h, offset=start).reshape(h, w)
+    z = _heights_from_counts(counts, scale, obliquity, wl, phase_res, p.name)
+    if sign == 1:
+        z = -z
+    dx, src = _lateral(res_m, dx_mm, p.name)
+    params: dict[str, Any] = {"format": "metropro-dat", "header_format": fmt, "units_assumed": [],
+                              "wavelength_nm": float(wl) * 1e9, "phase_res": int(phase_res), "dx_source": src,
+                              "n_nan": int(np.isnan(z).sum()), "no_data_value": ZYGO_INVALID_PHASE, "rows": _ROWS}
+    return z, dx, params
+
+
+def _ascii_numbers(line: str) -> list[float]:
+    """The numbers of a header line, quoted text left out."""
+    return [float(t) for t in re.sub(r'"[^"]*"', " ", line).split()]
+
+
+def read_zygo_ascii(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
+    """Read a Zygo ASCII data file (``.asc``; layout in the module's docstring).
+
+    Returns
+    -------
+    z_nm, dx_mm, params
+        As :func:`read_metropro_dat`.
+    """
+    p = Path(path)
+    text = p.read_text(encoding="latin-1")
+    lines = text.splitlines()
+    if not lines or not lines[0].strip().startswith("Zygo ASCII Data File"):
+        raise MeasurementFileError(f"{p.name} is not a Zygo ASCII data file (its first line does not say so).")
+    try:
+        hash_at = next(i for i, ln in enumerate(lines) if ln.strip() == "#")
+        head = lines[:hash_at]
+        iw, ih, nb = (int(v) for v in _ascii_numbers(head[2])[2:5])
+        pw, ph = (int(v) for v in _ascii_numbers(head[3])[2:4])
+        src, scale, wl, _na, obliquity, _mag, res_m = _ascii_numbers(head[7])[:7]
+        phase_res = int(_ascii_numbers(head[10])[2])
+    except (StopIteration, ValueError, IndexError):
+        raise MeasurementFileError(f"{p.name}: its header is not the Zygo ASCII layout (14 lines, then '#').",
+                                   "Export it again from MetroPro (File > Save Data As > ASCII).") from None
+    blocks = "\n".join(lines[hash_at + 1:]).split("#")
+    if len(blocks) < 2:
+        raise MeasurementFileError(f"{p.name}: the data blocks do not end with '#'.", "Is the file complete?")
+    try:
+        intensity, phase = np.array(blocks[0].split(), dtype=np.int64), np.array(blocks[1].split(), dtype=np.int64)
+    except ValueError:
+        raise MeasurementFileError(f"{p.name}: a data block holds something else than whole numbers.",
+                                   "Is the file complete and unedited?") from None
+    if intensity.size != iw * ih * nb or phase.size != pw * ph or phase.size == 0:
+        raise MeasurementFileError(
+            f"{p.name}: the header promises {pw} x {ph} phase values and {iw * ih * nb} intensity values; the file "
+            f"holds {phase.size} and {intensity.size}.", "Is the file complete? Export it again.")
+    z = _heights_from_counts(phase.reshape(ph, pw), scale, obliquity, wl, phase_res, p.name)
+    dx, srcx = _lateral(res_m, dx_mm, p.name)
+    params: dict[str, Any] = {"format": "zygo-ascii", "units_assumed": [], "wavelength_nm": float(wl) * 1e9,
+                              "phase_res": phase_res, "dx_source": srcx, "n_nan": int(np.isnan(z).sum()),
+                              "no_data_value": ZYGO_INVALID_PHASE, "rows": _ROWS}
+    return z, dx, params
+
+
+def _text_attr(v) -> str:
+    a = np.asarray(v).ravel()
+    v = a[0] if a.size else v
+    return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+
+
+def _value_unit_mm(text: str, what: str, name: str, to: dict[str, float]) -> float:
+    m = re.match(r"^\s*([-+0-9.eE]+)\s*([A-Za-zµμ]*)\s*$", text)
+    if not m:
+        raise MeasurementFileError(f"{name}: cannot read the {what} {text!r}.")
+    unit = (m.group(2) or "").lower().replace("μ", "µ")
+    if unit not in to:
+        raise MeasurementFileError(f"{name}: unknown unit {m.group(2)!r} in the {what} {text!r}.")
+    return float(m.group(1)) * to[unit]
+
+
+def read_4d_h5(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
+    """Read a 4D Technology HDF5 file (4Sight / 4D InSight ``.h5``; layout in the module's docstring).
+
+    Returns
+    -------
+    z_nm, dx_mm, params
+        As :func:`read_metropro_dat`; heights = waves x the file's wavelength.
+    """
+    h5py = require("h5py", "reading 4D Technology .h5 files", extra="zygo")
+    p = Path(path)
+    try:
+        f = h5py.File(p, "r")
+    except OSError as exc:
+        raise MeasurementFileError(f"{p.name} is not a readable HDF5 file: {exc}.") from None
+    with f:
+        if "measurement0/genraw/data" not in f:
+            raise MeasurementFileError(f"{p.name} has no measurement0/genraw/data (the 4D surface).",
+                                       "Save the measurement from 4Sight as .h5 with its surface data.")
+        g = f["measurement0/genraw"]
+        z = np.array(g["data"][()], dtype=np.float64)
+        if "wavelength" not in g.attrs:
+            raise MeasurementFileError(f"{p.name}: measurement0/genraw has no wavelength attribute, so its waves "
+                                       "cannot be turned into nm.", "Save the file again from 4Sight.")
+        wl = g.attrs["wavelength"]
+        wl_nm = (_value_unit_mm(_text_attr(wl), "wavelength", p.name, {"nm": 1.0, "": 1.0, "um": 1e3, "µm": 1e3})
+                 if isinstance(np.asarray(wl).ravel()[0], (bytes, str)) else float(np.asarray(wl).ravel()[0]))
+        if not (np.isfinite(wl_nm) and wl_nm > 0):
+            raise MeasurementFileError(f"{p.name}: the wavelength is {wl_nm!r} nm.", "Save the file again from 4Sight.")
+        xpix = _text_attr(g.attrs["xpix"]) if "xpix" in g.attrs else None
+    if z.ndim != 2:
+        raise MeasurementFileError(f"{p.name}: the 4D surface is not a 2D map (shape {z.shape}).")
+    invalid = ~(np.abs(z) < FOURD_INVALID)  # the sentinel, and NaN as written
+    n_inf = int(np.isinf(z).sum())
+    z = z * wl_nm
+    z[invalid] = np.nan
+    if dx_mm is not None:
+        dx, src = float(dx_mm), "argument"
+    elif xpix is not None:
+        dx, src = _value_unit_mm(xpix, "pixel size (xpix)", p.name, {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3}), "xpix"
+    else:
+        raise MeasurementFileError(f"{p.name} does not state its pixel size.",
+                                   "Pass the pixel size (dx_mm / --dx / [error_map] dx_mm) in mm.")
+    params: dict[str, Any] = {"format": "4d-h5", "units_assumed": [], "wavelength_nm": wl_nm, "dx_source": src,
+                              "n_nan": int(np.isnan(z).sum()), "no_data_value": FOURD_INVALID, "rows": _ROWS,
+                              "infinite_as_no_data": n_inf}
+    return z, dx, params

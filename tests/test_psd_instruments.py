@@ -1,0 +1,189 @@
+"""Instruments' own measurement files (issue 28 item 5): a real Zygo .datx, and MetroPro .dat, Zygo ASCII,
+4D Technology HDF5 and a Form Talysurf text export written to their documented layouts.
+
+Each reader: heights in nm, lateral in mm, invalid pixels as NaN with their count, the rows' order stated
+(interferometers store the top row first; the error map's rows go up in y).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from instrument_files import write_4d_h5, write_metropro_dat, write_zygo_ascii
+from polishpath.dwell import read_error_map
+from polishpath.errors import MeasurementFileError
+from polishpath.psd import read_measurement
+
+DATA = Path(__file__).resolve().parent / "data" / "measurements"
+REAL_DATX = DATA / "zygo_gpi_monolithic.datx"
+
+
+def _map(h=24, w=31, nan_corner=True):
+    """A map with a known shape: heights rise towards the *top* row (row 0 as the camera stores it)."""
+    i, j = np.mgrid[0:h, 0:w]
+    z = 40.0 * (h - 1 - i) / (h - 1) + 3.0 * np.sin(j / 3.0)  # nm; row 0 the highest
+    if nan_corner:
+        z[:3, :4] = np.nan
+    return z
+
+
+# --- a real instrument file ----------------------------------------------------------------------------------
+
+
+def test_real_zygo_datx_reads_with_its_own_units_and_no_data():
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(REAL_DATX, "r") as f:
+        ds = next(iter(f["Data"]["Surface"].values()))
+        raw = ds[()]
+        assert ds.attrs["Unit"][0] in (b"Fringes", "Fringes")
+    no_data = raw >= np.finfo(np.float64).max  # counted here with h5py alone
+    m = read_measurement(REAL_DATX)
+    assert m.kind == "map" and m.z_nm.shape == (259, 33)
+    assert m.dx_mm == pytest.approx(1.0, rel=1e-6)  # 0.001 m in the /Attributes group (the converter is in pixels)
+    assert m.params["dx_source"].startswith("/Attributes")
+    assert m.n_nan == int(no_data.sum()) == 776
+    ok = ~no_data
+    np.testing.assert_allclose(m.z_nm[ok], raw[ok] * 0.5 * 632.79998e0, rtol=1e-6)  # fringes x scale x wavelength
+    rms = np.std(m.z_nm[ok])
+    assert 10 < rms < 1000  # a polished surface's figure, nm: units neither m nor fringes
+
+
+def test_real_zygo_datx_as_an_error_map_has_its_rows_flipped(recwarn):
+    pytest.importorskip("h5py")
+    m = read_measurement(REAL_DATX)
+    e = read_error_map(REAL_DATX)
+    np.testing.assert_array_equal(e.z_nm, m.z_nm[::-1])
+    assert "flipped" in e.params["rows"]
+    assert e.dx_mm == pytest.approx(1.0, rel=1e-6)
+
+
+# --- MetroPro binary .dat ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("header_format, phase_res", [(1, 0), (2, 1), (3, 2)])
+def test_metropro_dat_heights_pixels_and_no_data(tmp_path, header_format, phase_res):
+    z = _map()
+    p = write_metropro_dat(tmp_path / "m.dat", z, lateral_res_m=2.5e-4, header_format=header_format,
+                           phase_res=phase_res)
+    m = read_measurement(p)
+    step = 0.5 * 632.8e-9 / {0: 4096, 1: 32768, 2: 131072}[phase_res] * 1e9  # nm per count
+    assert m.params["format"] == "metropro-dat" and m.params["header_format"] == header_format
+    assert m.z_nm.shape == z.shape and m.dx_mm == pytest.approx(0.25, rel=1e-6)
+    assert m.n_nan == 12
+    np.testing.assert_allclose(m.z_nm, z, atol=0.51 * step + 1e-9 * np.nanmax(z), equal_nan=True)
+
+
+def test_metropro_dat_inverted_sign_and_missing_lateral_resolution(tmp_path):
+    z = _map(nan_corner=False)
+    p = write_metropro_dat(tmp_path / "m.dat", z, sign=1, lateral_res_m=0.0)
+    with pytest.raises(MeasurementFileError, match="does not state its lateral resolution"):
+        read_measurement(p)
+    m = read_measurement(p, dx_mm=0.1)
+    np.testing.assert_allclose(m.z_nm, z, atol=0.01)
+    assert m.params["dx_source"] == "argument"
+
+
+def test_metropro_dat_truncated_is_refused(tmp_path):
+    p = write_metropro_dat(tmp_path / "m.dat", _map(), truncate=100)
+    with pytest.raises(MeasurementFileError, match="Is the file complete"):
+        read_measurement(p)
+
+
+def test_a_dat_of_plain_numbers_is_still_text(tmp_path):
+    x = np.arange(64) * 0.01
+    (tmp_path / "p.dat").write_text("# lateral_unit: mm\n# height_unit: nm\n"
+                                    + "\n".join(f"{a} {np.sin(a * 9):.6f}" for a in x))
+    m = read_measurement(tmp_path / "p.dat")
+    assert m.kind == "profile" and m.params["format"] == "text"
+
+
+# --- Zygo ASCII ----------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("intensity", [True, False])
+def test_zygo_ascii_heights_pixels_and_no_data(tmp_path, intensity):
+    z = _map()
+    p = write_zygo_ascii(tmp_path / "m.asc", z, lateral_res_m=5e-5, intensity=intensity)
+    m = read_measurement(p)
+    assert m.params["format"] == "zygo-ascii"
+    assert m.z_nm.shape == z.shape and m.dx_mm == pytest.approx(0.05, rel=1e-6) and m.n_nan == 12
+    np.testing.assert_allclose(m.z_nm, z, atol=0.01, equal_nan=True)
+
+
+def test_zygo_ascii_with_missing_values_is_refused(tmp_path):
+    p = write_zygo_ascii(tmp_path / "m.asc", _map())
+    text = p.read_text().splitlines()
+    p.write_text("\n".join(text[:-3] + text[-1:]) + "\n")  # two lines of phase counts lost
+    with pytest.raises(MeasurementFileError, match="promises 31 x 24 phase values"):
+        read_measurement(p)
+
+
+# --- 4D Technology HDF5 ---------------------------------------------------------------------------------------
+
+
+def test_4d_h5_waves_to_nm_sentinel_and_pixel_size(tmp_path):
+    pytest.importorskip("h5py")
+    z = _map()
+    p = write_4d_h5(tmp_path / "m.h5", z, wavelength="632.8 nm")
+    with pytest.raises(MeasurementFileError, match="does not state its pixel size"):
+        read_measurement(p)
+    m = read_measurement(p, dx_mm=0.2)
+    assert m.params["format"] == "4d-h5" and m.n_nan == 12 and m.dx_mm == 0.2
+    np.testing.assert_allclose(m.z_nm, z, rtol=1e-6, atol=1e-4, equal_nan=True)  # float32 waves
+    m = read_measurement(write_4d_h5(tmp_path / "x.h5", z, wavelength=532.0, xpix="120 um"))
+    assert m.dx_mm == pytest.approx(0.12) and m.params["dx_source"] == "xpix"
+    np.testing.assert_allclose(m.z_nm, z, rtol=1e-6, atol=1e-4, equal_nan=True)
+
+
+# --- every interferometer format: the rows as an error map -----------------------------------------------------
+
+
+@pytest.mark.parametrize("fmt", ["dat", "asc", "h5", "datx"])
+def test_interferometer_rows_go_up_in_y_as_an_error_map(tmp_path, fmt, recwarn):
+    """The file's first row is the top of the map (largest y): the error map's row 0 is its bottom."""
+    z = _map(nan_corner=False)  # the file's row 0 is the highest: heights rise with y on the part
+    if fmt in ("h5", "datx"):
+        pytest.importorskip("h5py")
+    if fmt == "dat":
+        p = write_metropro_dat(tmp_path / "m.dat", z, lateral_res_m=1e-4)
+    elif fmt == "asc":
+        p = write_zygo_ascii(tmp_path / "m.asc", z, lateral_res_m=1e-4)
+    elif fmt == "h5":
+        p = write_4d_h5(tmp_path / "m.h5", z, xpix="0.1 mm")
+    else:
+        from polishpath.psd.io import write_datx_like
+
+        p = write_datx_like(tmp_path / "m.datx", z, 0.1)
+    e = read_error_map(p)
+    col = e.z_nm[:, 5]
+    assert np.all(np.diff(col) > 0), "heights must rise with the row index (y up)"
+    assert e.dy_mm == pytest.approx(0.1, rel=1e-6)
+
+
+# --- a profilometer's export --------------------------------------------------------------------------------------
+
+
+def test_form_talysurf_text_export_reads_its_units_from_the_header(tmp_path):
+    """A Form Talysurf profile exported as text: a block of settings, then 'X (mm)  Z (µm)' columns."""
+    x = np.arange(400) * 0.0005  # 0.5 um sampling
+    z_um = 0.12 * np.sin(2 * np.pi * x / 0.05)
+    lines = ["Form Talysurf PGI 1240", "Profile: primary", "Traverse length = 0.2 mm", "X (mm)\tZ (µm)"]
+    lines += [f"{a:.6f}\t{b:.6f}" for a, b in zip(x, z_um)]
+    p = tmp_path / "trace.prf"
+    p.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    m = read_measurement(p)
+    assert m.kind == "profile" and not m.params["units_assumed"]
+    assert m.dx_mm == pytest.approx(0.0005, rel=1e-6)
+    np.testing.assert_allclose(m.z_nm, z_um * 1e3, atol=1e-3)
+
+
+def test_psd_command_reads_a_metropro_dat(tmp_path):
+    from test_bad_input import cli
+
+    p = write_metropro_dat(tmp_path / "m.dat", _map(64, 64, nan_corner=False), lateral_res_m=1e-4)
+    r = cli("psd", p)
+    assert r.returncode == 0, r.stderr
+    assert "m.dat: map (64, 64) at 100 um, 0 missing pixels" in r.stdout
