@@ -40,7 +40,7 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "polishpath"
 CORE = {"types", "errors", "meshops", "pathops", "progress", "fileio", "runfolder", "provenance", "defaults", "resources",
-        "_version"}
+        "_version", "axes"}
 # every other unit, upstream first; psd (measurement readers, PSD maths: core imports only) sits before
 # dwell (figuring), which reads error maps with it
 ORDER = ["surfaces", "flatten", "plan", "mapping", "psd", "dwell", "smooth", "schedule", "export", "simulate", "report",

@@ -89,6 +89,13 @@ def remesh_choice(text: str) -> str:
     return t
 
 
+def tool_axis_choice(text: str) -> str:
+    """``--tool-axis`` text checked (:func:`polishpath.axes.parse_tool_axis`), as its canonical spec."""
+    from .axes import parse_tool_axis
+
+    return parse_tool_axis(text).spec
+
+
 @dataclass(frozen=True)
 class JobConfig:
     """Every option of the main job. Lengths in mm, feed in mm/min, period in ms.
@@ -146,6 +153,11 @@ class JobConfig:
         ``[post]`` table's; docs/machine-output.md): most the curve may leave a merged block, mm (None:
         1 % of the spacing, at least ``chord_tol_mm``); most a dwell point's time may differ from its
         schedule (None: 0.01); helical arcs where one fits (None: yes).
+    tool_axis : str
+        The tool-axis law (:mod:`polishpath.axes`): ``z`` (default: the vertical tool of a 3-axis
+        machine), ``normal`` (along the surface normal) or ``tilted:angle=DEG[,azimuth=DEG]`` (a fixed
+        tilt from the normal toward a fixed azimuth of the part's frame); anything but ``z`` needs a
+        5-axis machine profile (``--machine xyzac-trt``) for the LinuxCNC post.
     tool_radius : float
         Offset contact points to the tool centre along the normal, mm (0: none);
         the feeds become those of the tool centre, so every segment keeps its planned time.
@@ -244,6 +256,11 @@ class JobConfig:
              "(default 0.01).")
     arcs: bool | None = option(None, "--arcs/--no-arcs",
                                help="G-code: helical arcs (G02/G03) where one fits, else G01 (default), or G01 only.")
+    tool_axis: str = option(
+        "z", "--tool-axis", parse=tool_axis_choice, cli_type=str,
+        help="Tool axis: z (default: vertical, 3-axis), normal (along the surface normal) or "
+             "tilted:angle=DEG[,azimuth=DEG] (fixed tilt from the normal toward a fixed azimuth of the part); "
+             "not z needs a 5-axis --machine (xyzac-trt, xyzbc-trt).")
     tool_radius: float = option(0.0, "--tool-radius",
                                 help="Ball/sponge radius, mm: the G-code drives the tool centre (contact point + "
                                      "radius along the normal) with feeds that keep every segment's planned time.",

@@ -52,6 +52,10 @@ class ParameterError(InputError, ValueError):
     """A numeric or named parameter is out of range or inconsistent."""
 
 
+class ReachError(ParameterError):
+    """The machine cannot reach an orientation the path asks for (a rotary axis' range)."""
+
+
 class ResourceError(InputError):
     """The inputs ask for more than the machine has (memory), found before the work starts."""
 

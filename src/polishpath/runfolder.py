@@ -75,6 +75,10 @@ SCHEDULE_ARRAY_KEYS = tuple(f"schedule_{f.name}" for f in dataclasses.fields(Sam
 #: profile, ``--machine``), and in every format-1 folder
 SAMPLE_ARRAY_KEYS = ("samples", "sample_params", "feed_mm_min")
 
+#: the dwell points' tool axes (N, 3) of a 5-axis run (``--tool-axis`` not ``z``; :mod:`polishpath.axes`):
+#: absent from a 3-axis run (the vertical tool), whose folder is byte for byte what it was
+TOOL_AXES_KEY = "tool_axes"
+
 #: arrays of a figuring run (``--error-map``), on the analysis grid ``figuring_grid`` = (x0, y0, pitch) mm
 FIGURING_ARRAY_KEYS = (
     "figuring_error_nm", "figuring_inside", "figuring_target_nm", "figuring_weight", "figuring_removal_nm",
@@ -169,6 +173,8 @@ def write_run(
         "knots": tp.curve.knots, "control_points": tp.curve.control_points,
         "curve_weights": tp.curve.weights, "curve_degree": np.int64(tp.curve.degree),
     }
+    if sp.tool_axes is not None:  # a 5-axis run: the axes travel (the samples' are interpolated from them)
+        arrays[TOOL_AXES_KEY] = sp.tool_axes
     if tp.schedule is not None:  # the samples are regenerable: their schedule, not the samples
         arrays.update(schedule_arrays(tp.schedule))
     else:
@@ -474,8 +480,10 @@ class RunData:
         """The dwell points on the part, ``xyz`` (N, 3) mm, with normals and dwell weights."""
         xyz, nrm, fid, bary, w = self._need("xyz", "normals", "face_ids", "bary", "dwell_weight")
         m = self.section("map")
+        axes = self.arrays[TOOL_AXES_KEY] if TOOL_AXES_KEY in self.arrays else None
+        law = (self.summary.get("config") or {}).get("tool_axis") or ("normal" if axes is not None else "z")
         return SurfacePath(xyz, nrm, fid, bary, w, self.planar, provenance=self._provenance("map", "map"),
-                           stats=dict(m.get("stats") or {}))
+                           stats=dict(m.get("stats") or {}), tool_axes=axes, tool_axis=str(law))
 
     @property
     def samples_stored(self) -> bool:

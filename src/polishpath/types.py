@@ -465,6 +465,12 @@ class SurfacePath:
     provenance : Provenance
     stats : dict
         3D step statistics and density variation.
+    tool_axes : (N, 3) float64 or None
+        Unit tool axes at the dwell points, part frame, from the tool tip up the spindle
+        (:mod:`polishpath.axes`); None: the vertical tool of a 3-axis job (the ``z`` law).
+    tool_axis : str
+        The tool-axis law that made ``tool_axes`` (``--tool-axis`` text: ``z``, ``normal``,
+        ``tilted:angle=20,azimuth=0``).
     """
 
     xyz: np.ndarray
@@ -475,10 +481,18 @@ class SurfacePath:
     planar: PlanarPath
     provenance: Provenance = field(default_factory=lambda: Provenance("map", "unknown"))
     stats: dict[str, Any] = field(default_factory=dict)
+    tool_axes: np.ndarray | None = None
+    tool_axis: str = "z"
 
     def __post_init__(self):
         object.__setattr__(self, "xyz", _frozen_array(self.xyz, np.float64, 2, 3, "xyz"))
         object.__setattr__(self, "normals", _frozen_array(self.normals, np.float64, 2, 3, "normals"))
+        if self.tool_axes is not None:
+            ax = _frozen_array(self.tool_axes, np.float64, 2, 3, "tool_axes")
+            if len(ax) != len(self.xyz):
+                raise ParameterError(f"SurfacePath.tool_axes has {len(ax)} rows for {len(self.xyz)} dwell points.",
+                                     "Give one tool axis per dwell point (polishpath.axes.tool_axes).")
+            object.__setattr__(self, "tool_axes", ax)
         object.__setattr__(self, "face_ids", _frozen_array(self.face_ids, np.int64, 1, None, "face_ids"))
         object.__setattr__(self, "bary", _frozen_array(self.bary, np.float64, 2, 3, "bary"))
         object.__setattr__(self, "dwell_weight", _frozen_array(self.dwell_weight, np.float64, 1, None, "dwell_weight"))
@@ -528,12 +542,15 @@ class SampleChunk:
         planned time of the move arriving at sample k is ``|s_k - s_(k-1)| / feed_k``.
     piece : int
         Index of the continuous piece (tool on the part) the samples belong to.
+    axes : (m, 3) float64 or None
+        Unit tool axes at the samples (``ToolPath.sample_axes`` rows); None: a 3-axis job.
     """
 
     samples: np.ndarray
     sample_params: np.ndarray
     feed_mm_min: np.ndarray
     piece: int
+    axes: np.ndarray | None = None
 
     def __post_init__(self):
         s = np.asarray(self.samples, dtype=np.float64)
@@ -548,6 +565,11 @@ class SampleChunk:
         if isinstance(self.piece, bool) or not isinstance(self.piece, (int, np.integer)) or self.piece < 0:
             raise ExportError(f"SampleChunk.piece must be a piece index >= 0, got {self.piece!r}.",
                               "Number the pieces 0, 1, ... in path order.")
+        if self.axes is not None:
+            ax = np.asarray(self.axes, dtype=np.float64)
+            if ax.shape != s.shape:
+                raise ExportError(f"SampleChunk.axes {ax.shape} must be ({len(s)}, 3) like the samples.", hint)
+            object.__setattr__(self, "axes", ax)
         object.__setattr__(self, "samples", s)
         object.__setattr__(self, "sample_params", u)
         object.__setattr__(self, "feed_mm_min", f)
@@ -677,6 +699,10 @@ class ToolPath:
         changed afterwards, e.g. by the machine schedule). With
         ``smooth(..., keep_samples=False)`` the sample arrays are empty and
         the schedule is the only way to the samples.
+    sample_axes : (M, 3) float64 or None
+        Unit tool axes at the samples (part frame, :mod:`polishpath.axes`): the law of
+        ``surface_path.tool_axis`` at the normals interpolated in the curve parameter; filled when not given;
+        None for a 3-axis job (``surface_path.tool_axes`` None).
     """
 
     curve: NurbsCurve
@@ -692,6 +718,7 @@ class ToolPath:
     schedule: SampleSchedule | None = None
     sample_pieces: np.ndarray = field(kw_only=True)
     piece_params: np.ndarray = field(kw_only=True)
+    sample_axes: np.ndarray | None = None
 
     def __post_init__(self):
         if self.schedule is not None and not isinstance(self.schedule, SampleSchedule):
@@ -704,6 +731,21 @@ class ToolPath:
         object.__setattr__(self, "sample_params", _frozen_array(self.sample_params, np.float64, 1, None, "sample_params"))
         object.__setattr__(self, "feed_mm_min", _frozen_array(self.feed_mm_min, np.float64, 1, None, "feed_mm_min"))
         self._set_pieces()
+        ax = self.surface_path.tool_axes if self.surface_path is not None else None
+        if ax is None:
+            object.__setattr__(self, "sample_axes", None)
+        else:
+            if self.sample_axes is None:
+                from .axes import axes_at_params
+
+                sa = axes_at_params(self.surface_path, self.dwell_params, self.sample_params)
+            else:
+                sa = self.sample_axes
+            sa = _frozen_array(sa, np.float64, 2, 3, "sample_axes")
+            if len(sa) != len(self.samples):
+                raise ParameterError(f"ToolPath.sample_axes has {len(sa)} rows for {len(self.samples)} samples.",
+                                     "Leave it out: it is interpolated from the dwell points' tool axes.")
+            object.__setattr__(self, "sample_axes", sa)
 
     def _set_pieces(self) -> None:
         """Check and freeze ``sample_pieces`` / ``piece_params`` against the samples, schedule and dwell pieces."""

@@ -21,10 +21,12 @@ from typing import Iterable, Iterator
 
 import numpy as np
 
+from ..axes import axes_at_params, interpolate_units
 from ..errors import ExportError
 from ..types import SampleChunk, ToolPath  # SampleChunk lives in the core; re-exported here
 
-__all__ = ["SampleChunk", "sample_chunks", "piece_offsets", "dwell_offsets", "normals_at", "DEFAULT_CHUNK_SAMPLES"]
+__all__ = ["SampleChunk", "sample_chunks", "piece_offsets", "dwell_offsets", "normals_at", "axes_at",
+           "DEFAULT_CHUNK_SAMPLES"]
 
 #: samples per chunk when the in-memory writers cut a ToolPath (about 12 MB of arrays)
 DEFAULT_CHUNK_SAMPLES = 1 << 18
@@ -49,10 +51,12 @@ def sample_chunks(tool_path: ToolPath, size: int = DEFAULT_CHUNK_SAMPLES) -> Ite
     if size < 1:
         raise ExportError(f"chunk size must be >= 1 sample, got {size}.")
     off = piece_offsets(tool_path)
+    ax = tool_path.sample_axes
     for k, (a, b) in enumerate(zip(off[:-1], off[1:])):
         for c in range(int(a), int(b), size):
             e = min(c + size, int(b))
-            yield SampleChunk(tool_path.samples[c:e], tool_path.sample_params[c:e], tool_path.feed_mm_min[c:e], k)
+            yield SampleChunk(tool_path.samples[c:e], tool_path.sample_params[c:e], tool_path.feed_mm_min[c:e], k,
+                              None if ax is None else ax[c:e])
 
 
 def checked_chunks(chunks: Iterable[SampleChunk], n_pieces: int) -> Iterator[tuple[bool, SampleChunk]]:
@@ -76,10 +80,10 @@ def normals_at(tool_path: ToolPath, params: np.ndarray) -> np.ndarray:
 
     Linear in the parameter between the two neighbouring dwell points' normals, then normalised.
     """
-    sp = tool_path.surface_path
-    dp = tool_path.dwell_params
-    u = np.asarray(params, dtype=np.float64)
-    nrm = np.stack([np.interp(u, dp, sp.normals[:, j]) for j in range(3)], axis=1)
-    ln = np.linalg.norm(nrm, axis=1, keepdims=True)
-    near = sp.normals[np.clip(np.searchsorted(dp, u), 0, len(dp) - 1)]
-    return np.where(ln > 1e-9, nrm / np.maximum(ln, 1e-300), near)
+    return interpolate_units(params, tool_path.dwell_params, tool_path.surface_path.normals)
+
+
+def axes_at(tool_path: ToolPath, params: np.ndarray) -> np.ndarray | None:
+    """Unit tool axes at curve parameters, (m, 3): the path's tool-axis law at the normals :func:`normals_at`
+    interpolates (:func:`polishpath.axes.axes_at_params`); None for a 3-axis job."""
+    return axes_at_params(tool_path.surface_path, tool_path.dwell_params, params)

@@ -22,9 +22,12 @@ from ..types import SurfacePath, ToolPath
 from .textfmt import format_csv, format_fixed
 
 __all__ = ["write_path_csv", "read_path_csv", "write_xyz", "xyz_writer", "read_xyz", "write_summary_json", "read_dwell_times",
-           "PATH_CSV_COLUMNS"]
+           "PATH_CSV_COLUMNS", "PATH_CSV_AXIS_COLUMNS"]
 
 PATH_CSV_COLUMNS = ("index", "i", "j", "u", "v", "x", "y", "z", "nx", "ny", "nz", "dwell_time")
+#: the columns a 5-axis path's ``path.csv`` adds at the end (``--tool-axis`` not ``z``): the unit tool axis
+#: (part frame, tip to spindle; :mod:`polishpath.axes`); a 3-axis path.csv has none (its bytes as before)
+PATH_CSV_AXIS_COLUMNS = ("axis_x", "axis_y", "axis_z")
 
 
 def _writable_path(file) -> Path:
@@ -103,7 +106,8 @@ def write_path_csv(path_data: ToolPath | SurfacePath, file, *, dwell_times: np.n
     Notes
     -----
     Columns: ``index, i, j`` (grid indices), ``u, v`` (planar position, mm),
-    ``x, y, z`` (mm), ``nx, ny, nz`` (unit normal), ``dwell_time`` (s). Numbers
+    ``x, y, z`` (mm), ``nx, ny, nz`` (unit normal), ``dwell_time`` (s), and for a
+    5-axis path (``tool_axes`` set) ``axis_x, axis_y, axis_z`` (unit tool axis). Numbers
     are written with 17 significant digits (exact round trip).
     """
     if isinstance(path_data, ToolPath):
@@ -122,9 +126,11 @@ def write_path_csv(path_data: ToolPath | SurfacePath, file, *, dwell_times: np.n
     uv = sp.planar.uv if sp.planar is not None and len(sp.planar.uv) == n else np.full((n, 2), np.nan)
     # %d of the float table the columns once were: truncation toward zero
     ints = np.column_stack([np.arange(n), np.trunc(np.asarray(ij, dtype=np.float64))]).astype(np.int64)
-    floats = np.column_stack([uv, sp.xyz, sp.normals, times]).astype(np.float64)
+    cols = [uv, sp.xyz, sp.normals, times] + ([] if sp.tool_axes is None else [sp.tool_axes])
+    floats = np.column_stack(cols).astype(np.float64)
+    header = PATH_CSV_COLUMNS + (() if sp.tool_axes is None else PATH_CSV_AXIS_COLUMNS)
     with _bytes_out(file) as write:
-        write((",".join(PATH_CSV_COLUMNS) + "\n").encode())
+        write((",".join(header) + "\n").encode())
         for a in range(0, n, CHUNK_ROWS):
             write(format_csv(ints[a : a + CHUNK_ROWS], floats[a : a + CHUNK_ROWS]))
 
@@ -133,10 +139,12 @@ def read_path_csv(file) -> dict[str, np.ndarray]:
     """Read a ``path.csv`` back: a dict of column name -> (N,) array (``index``, ``i``, ``j`` int64)."""
     with _text_in(file) as fh:
         rows = list(csv.reader(fh))
-    if not rows or tuple(rows[0]) != PATH_CSV_COLUMNS:
-        raise ExportError(f"Not a polishpath path.csv: expected header {','.join(PATH_CSV_COLUMNS)}.")
-    data = np.array(rows[1:], dtype=np.float64).reshape(-1, len(PATH_CSV_COLUMNS))
-    out = {c: data[:, k] for k, c in enumerate(PATH_CSV_COLUMNS)}
+    names = tuple(rows[0]) if rows else ()
+    if names not in (PATH_CSV_COLUMNS, PATH_CSV_COLUMNS + PATH_CSV_AXIS_COLUMNS):
+        raise ExportError(f"Not a polishpath path.csv: expected header {','.join(PATH_CSV_COLUMNS)} "
+                          f"(and {','.join(PATH_CSV_AXIS_COLUMNS)} for a 5-axis path).")
+    data = np.array(rows[1:], dtype=np.float64).reshape(-1, len(names))
+    out = {c: data[:, k] for k, c in enumerate(names)}
     for c in ("index", "i", "j"):
         out[c] = out[c].astype(np.int64)
     return out

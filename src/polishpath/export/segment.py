@@ -45,7 +45,7 @@ import numpy as np
 from .blockfit import (BFRAC, BLIM, BTIME, CHECK_FRACTIONS, DWELL, INS, MDONE, MUST, NBCOL, NCOL, PX, TT, UU, WX,
                        segment_intervals)
 
-__all__ = ["PieceSegmenter", "CHECK_FRACTIONS", "merge_dwell_points"]
+__all__ = ["PieceSegmenter", "CHECK_FRACTIONS", "merge_dwell_points", "rotary_block_ends"]
 
 
 @numba.njit(cache=True)
@@ -295,3 +295,79 @@ class PieceSegmenter:
         if k <= 0:
             return
         self.F, self.B, self.bidx = self.F[k:], self.B[k:], self.bidx[k:]
+
+
+def rotary_block_ends(P: np.ndarray, T: np.ndarray, V: np.ndarray, Q: np.ndarray, must: np.ndarray, chord_tol_mm: float,
+                      orientation_tol_deg: float, axes_from_coords) -> np.ndarray:
+    """The block ends of a 5-axis stretch: straight blocks under a chord and an orientation tolerance.
+
+    Point 0 is where the stretch starts (the last block end written); a block from point i to point j
+    replaces the points between them when each point k lies within ``chord_tol_mm`` of the block at the
+    share ``(T_k - T_i) / (T_j - T_i)`` of its time (the controller runs a block at a uniform pace), and
+    the tool axis the controller makes there from the orientation words interpolated linearly at that
+    share (``axes_from_coords``) is within ``orientation_tol_deg`` of the planned axis ``V_k``. Greedy:
+    each block is the longest that holds (doubling, then bisection, on the end), never passing a
+    ``must`` point (a dwell point). Vectorised per trial (the orientation words are the post's: the
+    hook of :meth:`polishpath.export.post.base.PostProcessor.axes_from_coords`), not compiled.
+
+    Parameters
+    ----------
+    P : (n, 3) float
+        Driven points, mm.
+    T : (n,) float
+        Planned times, s, non-decreasing.
+    V : (n, 3) float
+        Planned unit tool axes.
+    Q : (n, r) float
+        Orientation words (what the controller interpolates linearly).
+    must : (n,) bool
+        Points that must be block ends (the last point always is).
+
+    Returns
+    -------
+    (b,) int64
+        Indices of the block ends, ascending, the last point last (point 0 not included).
+    """
+    n = len(T)
+    cos_tol = math.cos(math.radians(orientation_tol_deg))
+    musts = np.flatnonzero(np.asarray(must, bool)[1:]) + 1
+    if n < 2:
+        return np.zeros(0, np.int64)
+    if not len(musts) or musts[-1] != n - 1:
+        musts = np.append(musts, n - 1)
+
+    def holds(i: int, j: int) -> bool:
+        if j <= i + 1:
+            return True
+        k = slice(i + 1, j)
+        span = T[j] - T[i]
+        s = (T[k] - T[i]) / span if span > 0 else np.zeros(j - i - 1)
+        pos = P[i] + s[:, None] * (P[j] - P[i])
+        if np.any(np.sum((pos - P[k]) ** 2, axis=1) > chord_tol_mm * chord_tol_mm):
+            return False
+        ax = axes_from_coords(Q[i] + s[:, None] * (Q[j] - Q[i]))
+        return bool(np.all(np.sum(ax * V[k], axis=1) >= cos_tol * np.linalg.norm(V[k], axis=1)))
+
+    ends = []
+    i = 0
+    while i < n - 1:
+        lim = int(musts[np.searchsorted(musts, i, side="right")])
+        good, step = i + 1, 1
+        bad = None
+        while good < lim:
+            cand = min(good + step, lim)
+            if holds(i, cand):
+                good, step = cand, step * 2
+            else:
+                bad = cand
+                break
+        if bad is not None:
+            while bad - good > 1:
+                mid = (good + bad) // 2
+                if holds(i, mid):
+                    good = mid
+                else:
+                    bad = mid
+        ends.append(good)
+        i = good
+    return np.asarray(ends, np.int64)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from .. import progress, resources
+from ..axes import with_tool_axes
 from ..config import JobConfig, parse_job
 from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
 from ..errors import ParameterError, PlanningError
@@ -100,7 +101,8 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
             sp = plan_on_surface(flat, region, cfg.spacing, pattern=cfg.pattern, seed=cfg.seed,
                                  spacing_on=cfg.spacing_on, start=cfg.start, margin=margin,
                                  max_points=cfg.max_points, max_oversampling=cfg.max_oversampling)
-        planar, spath = sp.planar, sp.surface_path
+        planar, spath = sp.planar, with_tool_axes(sp.surface_path, cfg.tool_axis)
+        check_reach(machine, spath)
         if cfg.dwell_times:
             from ..export import read_dwell_times
 
@@ -220,14 +222,27 @@ def check_machine_output(cfg: JobConfig):
     from ..export import get_post, job_post_settings
 
     machine = machine_profile(cfg)
-    post = get_post(post_name(cfg), job_post_settings(cfg))
-    post.check(mode=cfg.gcode, tool_radius=cfg.tool_radius)
+    post = get_post(post_name(cfg), job_post_settings(cfg), kinematics=machine.kinematics if machine else None)
+    post.check(mode=cfg.gcode, tool_radius=cfg.tool_radius, tool_axes=cfg.tool_axis != "z")
     if machine is not None and post.filename != "toolpath.nc":
         raise ParameterError(
             f"The {post.name} post cannot carry a machine profile's feed schedule: {post.filename} has no feeds "
             "(the xyz file runs at a constant period, path.csv holds dwell times).",
             "Use a G-code post (--post linuxcnc or fanuc) with --machine, or leave --machine out.")
     return machine
+
+
+def check_reach(machine, spath: SurfacePath) -> None:
+    """Refuse, before smoothing, a tool axis the machine's kinematics cannot reach at a dwell point
+    (:class:`~polishpath.errors.ReachError` naming the dwell point and the limit)."""
+    if machine is None or machine.kinematics is None or spath.tool_axes is None:
+        return
+    xyz = spath.xyz
+
+    def where(i: int) -> str:
+        return f"dwell point {i} at ({xyz[i, 0]:.3f}, {xyz[i, 1]:.3f}, {xyz[i, 2]:.3f}) mm"
+
+    machine.kinematics.angles(spath.tool_axes, where=where)
 
 
 def build_tif(spec: str | None):

@@ -165,7 +165,8 @@ class Job:
                 info = export.write_program(self.tool_path, out, post=post_name(cfg),
                                             settings=export.job_post_settings(cfg), mode=cfg.gcode,
                                             tool_radius=cfg.tool_radius, header=header, surface=self.surface,
-                                            xyz=True, chunks=counted(digest.observe(self.sample_chunks())))
+                                            xyz=True, chunks=counted(digest.observe(self.sample_chunks())),
+                                            kinematics=machine_kinematics(cfg))
                 info.pop("xyz_path", None)
                 if info.get("path"):  # the summary names the file where it will be, not in the staging folder
                     info["path"] = str(target / Path(info["path"]).relative_to(out))
@@ -248,7 +249,8 @@ class Job:
             "seed": self.seed,
             "dwell_points": self.planar.n_points,
             **{k: v for k, v in self.config.to_dict().items()
-               if k not in ("surface", "seed", "post_settings", "samples") and v is not None},  # samples: how, not what
+               if k not in ("surface", "seed", "post_settings", "samples") and v is not None  # samples: how, not what
+               and not (k == "tool_axis" and v == "z")},  # a 3-axis job's header as before the tool-axis laws
         }
 
 
@@ -260,6 +262,12 @@ def machine_profile(cfg: JobConfig):
     from ..schedule import load_machine
 
     return load_machine(cfg.machine)
+
+
+def machine_kinematics(cfg: JobConfig):
+    """The 5-axis kinematics of ``cfg.machine`` (:class:`~polishpath.schedule.Kinematics`; None: none)."""
+    m = machine_profile(cfg)
+    return m.kinematics if m is not None else None
 
 
 def post_name(cfg: JobConfig) -> str:

@@ -14,6 +14,15 @@ mm/s^3, the interpolation period in ms::
     max_tangential_acceleration_mm_s2 = 1000   # optional
     max_jerk_mm_s3 = [20000, 20000, 10000]     # optional: recorded, not enforced
     period_ms = 4.0                            # interpolation period
+
+    [machine.kinematics]                       # optional: a 5-axis machine (schedule/kinematics.py)
+    type = "xyzac-trt"                         # LinuxCNC's module: xyzac-trt or xyzbc-trt
+    rot_point_mm = [0, 0, 0]                   # x/y/z-rot-point: the C axis' centre
+    offset_mm = [0, -50]                       # y-offset, z-offset (xyzbc: x-offset, z-offset)
+    tilt_range_deg = [-120, 120]               # A (or B)
+    c_range_deg = [-360, 360]                  # optional; left out: continuous C
+    max_velocity_deg_min = [5400, 10800]       # A (or B), C
+    max_acceleration_deg_s2 = [360, 720]       # A (or B), C
 """
 
 from __future__ import annotations
@@ -25,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import SpecError
+from .kinematics import BUILTIN_KINEMATICS, Kinematics, kinematics_from_table, settings_from_table
 
 __all__ = ["MachineProfile", "BUILTIN_MACHINES", "load_machine"]
 
@@ -53,6 +63,10 @@ class MachineProfile:
     period_ms : float
         Interpolation period, ms: the job samples the path at this period, so no
         block is shorter in time than the controller can run.
+    kinematics : Kinematics or None
+        A 5-axis machine's kinematics (:mod:`polishpath.schedule.kinematics`: LinuxCNC's
+        ``xyzac-trt`` / ``xyzbc-trt``, rotary ranges and limits); None: a 3-axis machine. With
+        kinematics, the X Y Z limits are the joints' (the machine's axes, not the tool point's).
     """
 
     name: str = "generic-3axis"
@@ -63,9 +77,12 @@ class MachineProfile:
     max_tangential_acceleration_mm_s2: float | None = None
     max_jerk_mm_s3: tuple[float, float, float] | None = None
     period_ms: float = 4.0
+    kinematics: Kinematics | None = None
 
     def __post_init__(self):
         where = f"machine profile {self.name!r}"
+        if self.kinematics is not None and not isinstance(self.kinematics, Kinematics):
+            object.__setattr__(self, "kinematics", kinematics_from_table(self.kinematics, where))
         if not isinstance(self.name, str) or not isinstance(self.post, str):
             raise SpecError(f"{where}: name and post must be text.")
         for key in ("max_feed_mm_min", "period_ms"):
@@ -94,8 +111,11 @@ def _positive(v, what: str) -> None:
 #: built-in profiles. ``generic-3axis``: a small 3-axis polishing machine as commonly set up
 #: (1 m/s^2 on X and Y, half that on the heavier Z, 10 m/min), the middle of the 0.2-5 m/s^2
 #: range the benchmark compares (benchmarks/bench_machine.py).
+#: ``xyzac-trt`` / ``xyzbc-trt``: the same linear axes with a trunnion table of LinuxCNC's trt kinematics
+#: (:data:`polishpath.schedule.kinematics.BUILTIN_KINEMATICS`).
 BUILTIN_MACHINES: dict[str, MachineProfile] = {
     "generic-3axis": MachineProfile(),
+    **{k: MachineProfile(name=k, kinematics=kin) for k, kin in BUILTIN_KINEMATICS.items()},
 }
 
 
@@ -115,11 +135,4 @@ def load_machine(spec: str | Path | MachineProfile) -> MachineProfile:
     table = data.get("machine", data)
     if not isinstance(table, dict):
         raise SpecError(f"{p.name}: [machine] must be a table of limits.")
-    names = {f.name for f in dataclasses.fields(MachineProfile)}
-    unknown = sorted(set(table) - names)
-    if unknown:
-        raise SpecError(f"{p.name}: unknown machine setting(s) {', '.join(unknown)}.",
-                        f"Settings: {', '.join(sorted(names))}.")
-    kw = dict(table)
-    kw.setdefault("name", p.stem)
-    return MachineProfile(**kw)
+    return settings_from_table(MachineProfile, {"name": p.stem, **table}, p.name, "machine")

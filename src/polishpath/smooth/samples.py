@@ -26,6 +26,7 @@ from typing import Iterator
 
 import numpy as np
 
+from ..axes import axes_at_params
 from ..errors import ParameterError, SmoothingError
 from ..types import SampleChunk, ToolPath
 from .kernels import integrator_kernel, kernel_curve
@@ -183,8 +184,10 @@ def iter_sample_chunks(tool_path: ToolPath, size: int = DEFAULT_STREAM_SAMPLES) 
     kernel = integrator_kernel(sch.integrator)
     kc = kernel_curve(tool_path.curve)
     T = sch.period_ms / 1000.0
+    axes = tool_path.surface_path.tool_axes  # the tool axes of a 5-axis job travel with the samples
     for k in range(sch.n_pieces):
         u0, u1, rb, rf = sch.piece(k)
         for pu, pp, pv in KernelRun(kernel, kc, u0, u1, rb, rf, sch.max_feed_mm_s, T, sch.chord_tol_mm,
                                     size=int(size)):
-            yield SampleChunk(pp, pu, pv * 60.0, k)
+            ax = None if axes is None else axes_at_params(tool_path.surface_path, tool_path.dwell_params, pu)
+            yield SampleChunk(pp, pu, pv * 60.0, k, ax)

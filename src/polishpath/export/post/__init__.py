@@ -41,12 +41,14 @@ POSTS: dict[str, type[PostProcessor]] = {p.name: p for p in (LinuxCNCPost, Fanuc
 DEFAULT_POST = "linuxcnc"
 
 
-def get_post(name: str = DEFAULT_POST, settings: PostSettings | dict[str, Any] | None = None) -> PostProcessor:
-    """The post-processor registered as ``name``, with ``settings`` over its defaults."""
+def get_post(name: str = DEFAULT_POST, settings: PostSettings | dict[str, Any] | None = None,
+             kinematics=None) -> PostProcessor:
+    """The post-processor registered as ``name``, with ``settings`` over its defaults and the machine's
+    ``kinematics`` (:class:`polishpath.schedule.Kinematics`, for a 5-axis post's words; None: none)."""
     cls = POSTS.get(name)
     if cls is None:
         raise ParameterError(f"Unknown post-processor {name!r}.", f"Use one of: {', '.join(POSTS)}.")
-    return cls(settings)
+    return cls(settings, kinematics=kinematics)
 
 
 #: job options (:class:`polishpath.config.JobConfig` fields, their flags) that set a post setting
@@ -80,16 +82,17 @@ def post_help() -> str:
 def write_program(tool_path: ToolPath, out_dir: str | Path, *, post: str = DEFAULT_POST,
                   settings: dict[str, Any] | None = None, mode: str | None = None, tool_radius: float = 0.0,
                   header: dict | None = None, surface: Surface | None = None,
-                  chunks: Iterable[SampleChunk] | None = None, xyz: bool = False) -> dict[str, Any]:
+                  chunks: Iterable[SampleChunk] | None = None, xyz: bool = False, kinematics=None) -> dict[str, Any]:
     """Write the post's file into ``out_dir`` (atomically); returns what it wrote (see :meth:`PostProcessor.write`).
 
     ``surface``: the part's mesh, for the gouge check of a tool radius (``info["warnings"]``).
     ``chunks``: the machine samples as an iterable of :class:`~polishpath.export.chunks.SampleChunk`
     (a streamed job: ``tool_path``'s own sample arrays are then not read), consumed once.
     ``xyz``: also write ``toolpath.xyz`` in the same pass over the samples (``info["xyz_path"]``);
-    the bytes are those of :func:`polishpath.export.write_xyz`.
+    the bytes are those of :func:`polishpath.export.write_xyz`. ``kinematics``: the machine's, for a
+    5-axis post (:func:`get_post`).
     """
-    p = get_post(post, settings)
+    p = get_post(post, settings, kinematics=kinematics)
     out = Path(out_dir)
     if xyz and p.filename != "toolpath.xyz":
         with xyz_writer(out / "toolpath.xyz") as add:

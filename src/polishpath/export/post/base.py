@@ -39,7 +39,7 @@ import numpy as np
 from ..._version import __version__
 from ...errors import ParameterError
 from ...types import Surface, ToolPath
-from ..chunks import SampleChunk, checked_chunks, dwell_offsets, normals_at, sample_chunks
+from ..chunks import SampleChunk, axes_at, checked_chunks, dwell_offsets, normals_at, sample_chunks
 from ..files import _bytes_out, _fmt
 from ..segment import PieceSegmenter
 from ..textfmt import KEEP_POINT, NO_LEADING_ZERO, NO_TRAILING_ZEROS, fixed_text
@@ -127,6 +127,11 @@ class PostSettings:
         G94: F is written again only when a block's feed differs from the F in
         force by more than this fraction of it (0.001 = 0.1 %; its share of
         ``time_tol`` is kept free for it). G93 writes F on every block.
+    orientation_tol_deg : float
+        5-axis: most the tool axis the controller makes along a merged block (from its
+        interpolated rotary words) may leave the planned axis, degrees (default 0.005).
+    orientation_decimals : int
+        5-axis: digits after the point of the orientation words (degrees; 4: 0.0001 degree).
     postamble : str
         Last lines (``"M5 M9\\nM30"``: spindle and slurry off, end of program).
     program_number : int or None
@@ -156,6 +161,8 @@ class PostSettings:
     chord_tol_mm: float | None = None
     time_tol: float = 0.01
     feed_resolution: float = 0.001
+    orientation_tol_deg: float = 0.005
+    orientation_decimals: int = 4
     postamble: str = "M5 M9\nM30"
     program_number: int | None = None
     comments: bool = True
@@ -188,7 +195,10 @@ class PostSettings:
                 raise ParameterError(f"{where}: {name} must be a number >= 0, got {v!r}.")
         if self.approach_feed_mm_min <= 0:
             raise ParameterError(f"{where}: approach_feed_mm_min must be > 0 mm/min, got {self.approach_feed_mm_min!r}.")
-        for name in ("decimals", "feed_decimals"):
+        o = self.orientation_tol_deg
+        if isinstance(o, bool) or not isinstance(o, (int, float)) or not math.isfinite(o) or not 0 < o < 10:
+            raise ParameterError(f"{where}: orientation_tol_deg must be a number of degrees in (0, 10), got {o!r}.")
+        for name in ("decimals", "feed_decimals", "orientation_decimals"):
             v = getattr(self, name)
             if v is None and name == "feed_decimals":
                 continue
@@ -264,6 +274,13 @@ class PostProcessor:
         G-code flavours it can write (``"linear"``, ``"nurbs"``); first is its default.
     tool_offset : bool
         Whether it can write tool-centre coordinates (``tool_radius > 0``).
+    writes_axes : bool
+        Whether it writes the tool axis (a 5-axis or robot post: the rotary-words hook,
+        :meth:`orientation_letters`); a 3-axis post refuses a path with tool axes.
+
+    A 5-axis post is made with the machine's kinematics (``kinematics``, a
+    :class:`polishpath.schedule.kinematics.Kinematics` or None) where its words need them
+    (LinuxCNC's A/C or B/C angles); a post writing tool vectors (A3/B3/C3) needs none.
     """
 
     name: ClassVar[str] = ""
@@ -271,14 +288,39 @@ class PostProcessor:
     filename: ClassVar[str] = ""
     modes: ClassVar[tuple[str, ...]] = ("linear",)
     tool_offset: ClassVar[bool] = False
+    writes_axes: ClassVar[bool] = False
     defaults: ClassVar[dict[str, Any]] = {}
 
-    def __init__(self, settings: PostSettings | dict[str, Any] | None = None):
+    def __init__(self, settings: PostSettings | dict[str, Any] | None = None, kinematics=None):
         base = PostSettings().replace(self.defaults, f"{self.name} defaults")
         self.settings = settings if isinstance(settings, PostSettings) else base.replace(settings, f"[post] for {self.name}")
+        self.kinematics = kinematics
 
-    def check(self, *, mode: str | None = None, tool_radius: float = 0.0) -> str:
-        """The mode to write (``mode`` or the post's default), refusing what this controller cannot take."""
+    # ---------------------------------------------------------------- the rotary-words hook (5-axis posts)
+    def orientation_letters(self) -> tuple[str, ...]:
+        """The letters of the words that carry the tool axis on every motion block (``("A", "C")`` for
+        LinuxCNC's xyzac-trt); () for a 3-axis post."""
+        return ()
+
+    def orientation_coords(self, axes: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
+        """The values of :meth:`orientation_letters` for unit tool ``axes`` (m, 3) (part frame, tip to spindle),
+        (m, r): what the controller interpolates linearly between two blocks. ``previous`` (r,): the values
+        of the sample before (continuity: a branch and unwinding chosen from it), None at a piece's start."""
+        raise NotImplementedError(f"the {self.name} post writes no tool axis")
+
+    def axes_from_coords(self, coords: np.ndarray) -> np.ndarray:
+        """Unit tool axes (m, 3) of orientation values ``coords`` (m, r): the inverse of :meth:`orientation_coords`
+        (the segmenter checks the controller's interpolation against the planned axes with it)."""
+        raise NotImplementedError(f"the {self.name} post writes no tool axis")
+
+    def check(self, *, mode: str | None = None, tool_radius: float = 0.0, tool_axes: bool = False) -> str:
+        """The mode to write (``mode`` or the post's default), refusing what this controller cannot take
+        (``tool_axes``: the path carries tool axes, a 5-axis job)."""
+        if tool_axes and not self.writes_axes:
+            raise ParameterError(
+                f"The {self.name} post writes a 3-axis file (vertical tool): it cannot carry the tool axes of "
+                "--tool-axis other than z.",
+                "Use a 5-axis post and machine (--post linuxcnc --machine xyzac-trt or xyzbc-trt), or --tool-axis z.")
         mode = mode or self.modes[0]
         if mode not in ("linear", "nurbs"):
             raise ParameterError(f"Unknown G-code mode {mode!r}.", "Use 'linear' or 'nurbs'.")
@@ -339,8 +381,13 @@ class GcodePost(PostProcessor):
     inverse_time: ClassVar[bool] = False  # the controller has G93
     label: ClassVar[str] = ""  # a header line saying which controllers the file is for
 
-    def feed_mode(self, tool_radius: float) -> str:
+    def feed_mode(self, tool_radius: float, rotary: bool = False) -> str:
         fm = self.settings.feed_mode
+        if rotary:  # a 5-axis block's time cannot be set by a feed per minute of the tool point alone
+            if fm == "per-minute" or not self.inverse_time:
+                raise ParameterError(f"The {self.name} post writes 5-axis blocks in inverse time (G93) only.",
+                                     "Leave feed_mode at auto (or inverse-time) for a path with tool axes.")
+            return "inverse-time"
         if fm == "auto":
             return "inverse-time" if (self.inverse_time and tool_radius > 0) else "per-minute"
         if fm == "inverse-time" and not self.inverse_time:
@@ -420,6 +467,40 @@ class GcodePost(PostProcessor):
                            feed_resolution=s.feed_resolution, feed_in_force=self.approach_feed_written(),
                            sep=s.word_separator, styles=self.styles())
 
+    # ---------------------------------------------------------------- 5-axis (the rotary-words hook)
+    def fo(self, v: float) -> str:
+        """An orientation word's number as the motion blocks write it (``orientation_decimals``)."""
+        return fixed_text(v, self.settings.orientation_decimals, self.styles())
+
+    def rotary_motion(self, tool_path: ToolPath, k: int, write, tool_radius: float, ctx: dict):
+        """The writer of piece ``k``'s 5-axis moves (:class:`~polishpath.export.post.rotary.RotaryMotion`)."""
+        from .rotary import RotaryMotion
+
+        s = self.settings
+        sp = tool_path.surface_path
+        a, b = ctx["dwell_offsets"][k], ctx["dwell_offsets"][k + 1]
+        dpts = sp.xyz[a:b] if tool_radius == 0 else offset_along_normals(sp.xyz[a:b], sp.normals[a:b], tool_radius)
+        return RotaryMotion(self, write, dwell_params=tool_path.dwell_params[a:b], dwell_points=dpts,
+                            dwell_axes=sp.tool_axes[a:b], chord_tol_mm=ctx["segment_tol_mm"],
+                            orientation_tol_deg=s.orientation_tol_deg, decimals=s.decimals,
+                            orientation_decimals=s.orientation_decimals, feed_decimals=s.feed_decimals,
+                            feed_resolution=s.feed_resolution, sep=s.word_separator, styles=self.styles())
+
+    def rotary_header(self, tool_path: ToolPath, tool_radius: float) -> list[str]:
+        """Header lines of a 5-axis file: which tool point, which kinematics the coordinates are for."""
+        point = (f"the tool centre [contact point + {tool_radius:g} mm along the surface normal]" if tool_radius > 0
+                 else "the tool-part contact point")
+        return [f"TOOL AXIS: {tool_path.surface_path.tool_axis} [part frame, tool tip to spindle]",
+                f"COORDINATES: X Y Z = {point} in the part's frame; "
+                f"{' '.join(self.orientation_letters())} = the tool axis' words",
+                "FEED: G93 inverse time, F = 1/minutes of each block: every block takes its planned time"]
+
+    def rotary_info(self, counts: dict) -> dict[str, Any]:
+        """What a 5-axis file's summary adds: the orientation words, tolerance and the largest axis error."""
+        return {"orientation_words": list(self.orientation_letters()),
+                "orientation_tol_deg": self.settings.orientation_tol_deg,
+                "axis_error_at_block_ends_deg": counts["axis_error_deg"]}
+
     def feed_share(self, inverse: bool) -> float:
         """The share of ``time_tol`` kept for F's resolution: ``feed_resolution`` where a block's F may be off
         its own feed by that much (G94's modal F, or F rounded to that resolution), else 0."""
@@ -494,7 +575,11 @@ class GcodePost(PostProcessor):
                 ("trailing_zeros", s.trailing_zeros), ("integer_point", s.integer_point)]
         if mode == "linear":
             hdr += [("segmenting", s.segmenting)]
-            if s.segmenting == "chord":
+            if s.segmenting == "chord" and sp.tool_axes is not None:  # 5-axis: lines, every dwell point an end
+                hdr += [("segment_chord_tol_mm", ctx["segment_tol_mm"]),
+                        ("segment_orientation_tol_deg", s.orientation_tol_deg), ("arcs", False),
+                        ("dwell_block_ends", True)]
+            elif s.segmenting == "chord":
                 hdr += [("segment_chord_tol_mm", ctx["segment_tol_mm"]), ("segment_time_tol", s.time_tol),
                         ("arcs", self.uses_arcs()), ("dwell_block_ends", s.dwell_block_ends)]
             if feed_mode != "inverse-time":
@@ -502,20 +587,24 @@ class GcodePost(PostProcessor):
         lines = [_comment(f"{k}: {v}") for k, v in hdr]
         if self.label:
             lines.append(_comment(self.label))
-        if tool_radius > 0:
+        if sp.tool_axes is not None:
+            lines += [_comment(x) for x in self.rotary_header(tool_path, tool_radius)]
+        elif tool_radius > 0:
             lines.append(_comment(f"COORDINATES: TOOL CENTRE. TOOL RADIUS OFFSET: contact points moved {tool_radius} mm "
                                   "along the surface normal to the centre of the ball/sponge tool; run with no "
                                   "cutter compensation and the tool length set to that centre"))
         else:
             lines.append(_comment("COORDINATES: TOOL-PART CONTACT POINT [no tool radius offset]; the controlled "
                                   "point must be the tool's contact point"))
-        if feed_mode == "inverse-time":
+        if sp.tool_axes is not None:
+            pass  # the 5-axis header said it
+        elif feed_mode == "inverse-time":
             lines.append(_comment("FEED: G93 inverse time, F = 1/minutes of each block: every block takes its "
                                   "planned time whatever the offset"))
         else:
             lines.append(_comment("FEED: G94 mm/min of the driven point, each F set so the block takes its "
                                   "planned time"))
-        if mode == "linear":
+        if mode == "linear" and sp.tool_axes is None:
             if self.uses_arcs():  # LinuxCNC reads at most 256 characters a line
                 lines.append(_comment("ARCS: G2/G3 helical arcs in the XY plane [G17], Z linear along the arc, "
                                       "centre I J incremental from the arc's start; G1/G2/G3 only where the "
@@ -528,9 +617,10 @@ class GcodePost(PostProcessor):
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
               header: dict | None = None, surface: Surface | None = None, chunks: Iterable[SampleChunk] | None = None,
               also: tuple = ()) -> dict[str, Any]:
-        mode = self.check(mode=mode, tool_radius=tool_radius)
+        rotary = tool_path.surface_path.tool_axes is not None
+        mode = self.check(mode=mode, tool_radius=tool_radius, tool_axes=rotary)
         tool_radius = float(tool_radius)
-        feed_mode = self.feed_mode(tool_radius)
+        feed_mode = self.feed_mode(tool_radius, rotary)
         s = self.settings
         sp = tool_path.surface_path
         doff = dwell_offsets(tool_path)
@@ -540,7 +630,8 @@ class GcodePost(PostProcessor):
         a = s.approach_mm
         # the clearance plane from what is known before the samples: a bound of the curve, the approach points
         ends = np.concatenate([doff[:-1], doff[1:] - 1])
-        nrm = sp.normals[ends] / np.maximum(np.linalg.norm(sp.normals[ends], axis=1, keepdims=True), 1e-300)
+        away = sp.normals if not rotary else sp.tool_axes  # the approach and retract: along the tool axis (5-axis)
+        nrm = away[ends] / np.maximum(np.linalg.norm(away[ends], axis=1, keepdims=True), 1e-300)
         reach = sp.xyz[ends] + (tool_radius + a) * nrm
         zmax = max(self.reach_z(tool_path, tool_radius, ctx), float(np.max(reach[:, 2])) if len(reach) else 0.0, 0.0)
         safe = zmax + s.clearance_mm
@@ -549,7 +640,7 @@ class GcodePost(PostProcessor):
         inverse = feed_mode == "inverse-time"
         chunks = sample_chunks(tool_path) if chunks is None else chunks
         at = self.driven(tool_path, tool_radius)
-        counts = {"bytes": 0, "samples": 0, "blocks": 0, "arcs": 0, "path_s": 0.0, "pieces": 0}
+        counts = {"bytes": 0, "samples": 0, "blocks": 0, "arcs": 0, "path_s": 0.0, "pieces": 0, "axis_error_deg": 0.0}
         with _bytes_out(file) as raw:
 
             def write(b: bytes) -> None:
@@ -578,7 +669,7 @@ class GcodePost(PostProcessor):
 
             def end_piece() -> None:
                 m, (p1, u1) = state["motion"], state["last"]
-                n1 = normals_at(tool_path, np.array([u1]))[0]
+                n1 = (axes_at if rotary else normals_at)(tool_path, np.array([u1]))[0]
                 secs, blocks = m.finish()
                 q1 = p1 + a * n1
                 text(("G94\n" if inverse else "") + w("G01", f"X{f(q1[0])}", f"Y{f(q1[1])}", f"Z{f(q1[2])}",
@@ -586,6 +677,7 @@ class GcodePost(PostProcessor):
                      + w("G00", f"Z{f(safe)}") + "\n")
                 counts["path_s"] += secs
                 counts["blocks"] += blocks
+                counts["axis_error_deg"] = max(counts["axis_error_deg"], getattr(m, "max_axis_error_deg", 0.0))
                 counts["arcs"] += getattr(m, "arcs", 0)
                 counts["pieces"] += 1
 
@@ -596,16 +688,29 @@ class GcodePost(PostProcessor):
                 if starts:
                     if state["motion"] is not None:
                         end_piece()
-                    p0, n0 = pts[0], normals_at(tool_path, chunk.sample_params[:1])[0]
+                    p0, n0 = pts[0], (axes_at if rotary else normals_at)(tool_path, chunk.sample_params[:1])[0]
                     q0 = p0 + a * n0
-                    text(w("G00", f"Z{f(safe)}") + "\n" + w("G00", f"X{f(q0[0])}", f"Y{f(q0[1])}") + "\n"
+                    turn = ()
+                    if rotary:  # the table turns to the piece's first orientation at the clearance height
+                        prev = state["motion"].prev_coords if state["motion"] is not None else None
+                        o0 = self.orientation_coords(chunk.axes[:1], prev)[0]
+                        turn = tuple(f"{k}{self.fo(v)}" for k, v in zip(self.orientation_letters(), o0))
+                    text(w("G00", f"Z{f(safe)}") + "\n" + w("G00", f"X{f(q0[0])}", f"Y{f(q0[1])}", *turn) + "\n"
                          + w("G00", f"Z{f(q0[2])}") + "\n"
                          + w("G01", f"X{f(p0[0])}", f"Y{f(p0[1])}", f"Z{f(p0[2])}", f"F{ff(s.approach_feed_mm_min)}")
                          + "\n"
                          + ("G93\n" if inverse else ""))
-                    state["motion"] = self.motion(tool_path, chunk.piece, write, feed_mode, mode, tool_radius, ctx)
-                    state["motion"].start(p0)
-                state["motion"].add(chunk.samples, pts, chunk.sample_params, chunk.feed_mm_min)
+                    if rotary:
+                        state["motion"] = self.rotary_motion(tool_path, chunk.piece, write, tool_radius, ctx)
+                        state["motion"].start(p0, o0)
+                    else:
+                        state["motion"] = self.motion(tool_path, chunk.piece, write, feed_mode, mode, tool_radius,
+                                                      ctx)
+                        state["motion"].start(p0)
+                if rotary:
+                    state["motion"].add(chunk.samples, pts, chunk.sample_params, chunk.feed_mm_min, chunk.axes)
+                else:
+                    state["motion"].add(chunk.samples, pts, chunk.sample_params, chunk.feed_mm_min)
                 state["last"] = (pts[-1], chunk.sample_params[-1])
                 counts["samples"] += len(chunk)
             if state["motion"] is not None:
@@ -632,4 +737,5 @@ class GcodePost(PostProcessor):
                 "path_time_s": counts["path_s"], "machining_time_s": counts["path_s"] + appr_s,
                 "motion_blocks": counts["blocks"], "samples": counts["samples"], "bytes": counts["bytes"],
                 "lines_per_dwell_point": counts["blocks"] / n_dwell, "bytes_per_dwell_point": counts["bytes"] / n_dwell,
-                "pieces": counts["pieces"], "settings": dataclasses.asdict(s)}
+                "pieces": counts["pieces"], "settings": dataclasses.asdict(s),
+                **(self.rotary_info(counts) if rotary else {})}

@@ -22,7 +22,7 @@ class XyzPost(PostProcessor):
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
               header: dict | None = None, surface=None, chunks=None, also: tuple = ()) -> dict[str, Any]:
-        self.check(mode=mode, tool_radius=tool_radius)
+        self.check(mode=mode, tool_radius=tool_radius, tool_axes=tool_path.surface_path.tool_axes is not None)
         if chunks is None and not also:
             write_xyz(tool_path, file)
             t = float(planned_segment_times(tool_path).sum())
@@ -49,12 +49,14 @@ class CsvPost(PostProcessor):
     """One row per dwell point with its time (``path.csv``), for a controller that schedules dwell itself."""
 
     name: ClassVar[str] = "csv"
-    description: ClassVar[str] = "path.csv: one row per dwell point (position, normal, dwell time in s)"
+    description: ClassVar[str] = ("path.csv: one row per dwell point (position, normal, dwell time in s; "
+                                  "the tool axis with --tool-axis)")
     filename: ClassVar[str] = "path.csv"
+    writes_axes: ClassVar[bool] = True  # a 5-axis path's path.csv has the axis_x, axis_y, axis_z columns
 
     def write(self, tool_path: ToolPath, file, *, mode: str | None = None, tool_radius: float = 0.0,
               header: dict | None = None, surface=None, chunks=None, also: tuple = ()) -> dict[str, Any]:
-        self.check(mode=mode, tool_radius=tool_radius)
+        self.check(mode=mode, tool_radius=tool_radius, tool_axes=tool_path.surface_path.tool_axes is not None)
         write_path_csv(tool_path, file)
         if also:  # the samples are not in path.csv; the other writers of the pass still get them
             for c in (chunks if chunks is not None else sample_chunks(tool_path)):
