@@ -38,12 +38,7 @@ import numpy as np
 from ..._version import __version__
 from ...errors import ExportError, ParameterError
 from ...types import Surface, ToolPath
-from ..chunks import SampleChunk, checked_chunks, dwell_offsets, sample_chunks
-try:  # TEMPORARY until h27axes lands
-    from ..chunks import axes_at
-except ImportError:
-    def axes_at(tool_path, params):
-        return None
+from ..chunks import SampleChunk, axes_at, checked_chunks, dwell_offsets, sample_chunks
 from ..files import _bytes_out
 from ..textfmt import format_fixed
 from .base import GcodePost, PostSettings, _flatten_header
@@ -199,8 +194,9 @@ class OrientedPost(GcodePost):
 
     own_settings: ClassVar[type] = type(None)
     comment_mark: ClassVar[str] = ";"
+    writes_axes: ClassVar[bool] = True
 
-    def __init__(self, settings: PostSettings | dict[str, Any] | None = None):
+    def __init__(self, settings: PostSettings | dict[str, Any] | None = None, kinematics=None):
         opts = {} if settings is None or isinstance(settings, PostSettings) else settings
         if not isinstance(opts, dict):
             raise ParameterError(f"[post] for {self.name} must be a table of settings, got {type(opts).__name__}.")
@@ -210,7 +206,7 @@ class OrientedPost(GcodePost):
             raise ParameterError(f"[post] for {self.name}: unknown post setting(s) {', '.join(unknown)}.",
                                  f"Settings: {', '.join(PostSettings.names() + own_names)}.")
         super().__init__(settings if isinstance(settings, PostSettings) else
-                         {k: v for k, v in opts.items() if k not in own_names})
+                         {k: v for k, v in opts.items() if k not in own_names}, kinematics=kinematics)
         own = {k: v for k, v in opts.items() if k in own_names}
         self.own = dataclasses.replace(self.own_settings(), **own)
         self.own.check(f"[post] for {self.name}")

@@ -148,8 +148,8 @@ class RapidPost(OrientedPost):
     defaults: ClassVar[dict[str, Any]] = {**no_gcode, "leading_zero": True}  # RAPID: 0.5, not .5
     own_settings: ClassVar[type] = RapidSettings
 
-    def __init__(self, settings=None):
-        super().__init__(settings)
+    def __init__(self, settings=None, kinematics=None):
+        super().__init__(settings, kinematics=kinematics)
         for k, v in self.no_gcode.items():
             if getattr(self.settings, k) != v:
                 raise ParameterError(f"[post] for {self.name}: {k} is a G-code setting; a RAPID module has no "

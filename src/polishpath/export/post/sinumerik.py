@@ -95,8 +95,8 @@ class SinumerikPost(OrientedPost):
                                           "word_separator": " ", "leading_zero": True}
     own_settings: ClassVar[type] = SinumerikSettings
 
-    def __init__(self, settings=None):
-        super().__init__(settings)
+    def __init__(self, settings=None, kinematics=None):
+        super().__init__(settings, kinematics=kinematics)
         s = self.settings
         if s.arcs:
             raise ParameterError(f"[post] for {self.name}: arcs must be false: the post writes straight blocks (an "
