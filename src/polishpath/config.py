@@ -111,6 +111,10 @@ class JobConfig:
     pattern : str
         Path pattern (:data:`polishpath.plan.PATTERNS`): ``pseudorandom`` (default), ``raster``, ``spiral``,
         ``rectangular``, or a peer of the paper's Table 3: ``unicursal``, ``maze``, ``fractal``, ``hilbert``.
+    dwell_points : {"grid", "blue-noise"}
+        The dwell-point set (:data:`polishpath.plan.points.DWELL_POINT_SETS`): ``grid``, the paper's
+        square grid (default); ``blue-noise``, a Poisson-disk set without a lattice at the same density,
+        walked by the pseudo-random path along its planar neighbour graph.
     spacing : float
         Dwell-point spacing, mm. Honoured on the part by default (see ``spacing_on``).
     spacing_on : {"surface", "plane"}
@@ -205,6 +209,9 @@ class JobConfig:
     pattern: str = option("pseudorandom", "--pattern", "-p",
                           help="pseudorandom (default), raster, spiral, rectangular, or a peer: unicursal, maze, "
                                "fractal, hilbert.")
+    dwell_points: str = option("grid", "--dwell-points", choices=("grid", "blue-noise"),
+                               help="Dwell points: 'grid' (default: the paper's square grid) or 'blue-noise' "
+                                    "(no lattice; pseudorandom pattern only).")
     spacing: float = option(0.5, "--spacing", "-s", help="Dwell-point spacing on the part, mm (default 0.5).",
                             positive=True)
     spacing_on: str = option("surface", "--spacing-on", choices=("surface", "plane"),

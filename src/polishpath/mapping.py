@@ -349,7 +349,8 @@ def map_to_surface(
         ``xyz`` (N, 3) on the mesh, ``normals`` (N, 3) unit interpolated vertex
         normals, ``face_ids`` (N,), ``bary`` (N, 3), ``dwell_weight`` (N,) the
         part area each point stands for (the local 3D/2D area ratio interpolated
-        from the vertices, normalised to mean 1) and ``stats``
+        from the vertices, times the point's planar cell ``path.cell_area`` when
+        the set has no lattice, normalised to mean 1) and ``stats``
         (:func:`surface_step_stats` plus ``n_snapped`` and ``seconds``).
 
     Raises
@@ -388,6 +389,8 @@ def map_to_surface(
     ratio_v = _vertex_area_ratio(surf, flat.uv)
     ratio_v = np.where(np.isfinite(ratio_v), ratio_v, np.nanmedian(ratio_v) if np.isfinite(ratio_v).any() else 1.0)
     w = np.einsum("nk,nk->n", bary, ratio_v[tri])
+    if path.cell_area is not None:  # a set without a lattice: each point's own planar cell (Voronoi), mm^2
+        w = w * path.cell_area
     w = w / w.mean() if len(w) and w.mean() > 0 else np.ones(len(pts))
     s = surface_spacing if surface_spacing is not None else path.stats.get("surface_spacing", path.spacing)
     stats = surface_step_stats(xyz, path.pieces, float(s), w)

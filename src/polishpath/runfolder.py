@@ -60,7 +60,7 @@ ARRAY_KEYS = (
     "uv", "angles",                                        # flattening
     "plan_uv", "plan_ij", "plan_pieces", "plan_unreached",  # planar path
     "plan_spacing", "plan_origin", "plan_rotation",
-    "plan_lattice_basis", "plan_lattice_origin", "plan_lattice_steps", "plan_dwell_points_only",
+    "plan_lattice_basis", "plan_lattice_origin", "plan_lattice_steps", "plan_dwell_points_only", "plan_cell_area",
     "xyz", "normals", "dwell_weight", "face_ids", "bary",  # path on the part
     "dwell_params", "dwell_times", "sample_pieces", "piece_params",  # tool path
     "knots", "control_points", "curve_weights", "curve_degree",
@@ -165,6 +165,7 @@ def write_run(
         "plan_uv": pp.uv, "plan_ij": pp.ij, "plan_pieces": pp.pieces, "plan_unreached": pp.unreached,
         "plan_spacing": np.float64(pp.spacing), "plan_origin": pp.origin, "plan_rotation": np.float64(pp.rotation),
         **_lattice_arrays(pp.lattice), "plan_dwell_points_only": np.bool_(pp.dwell_points_only),
+        "plan_cell_area": pp.cell_area if pp.cell_area is not None else np.zeros(0),
         "xyz": sp.xyz, "normals": sp.normals, "dwell_weight": sp.dwell_weight,
         "face_ids": sp.face_ids, "bary": sp.bary,
         "dwell_params": tp.dwell_params,
@@ -469,11 +470,15 @@ class RunData:
             basis, lorigin, steps, only = self._need(
                 "plan_lattice_basis", "plan_lattice_origin", "plan_lattice_steps", "plan_dwell_points_only")
             lattice = Lattice(basis, lorigin, steps) if basis.size else None
+        prov = self._provenance("plan", "plan")
+        # a set without a lattice: its cells (an older folder, or a grid run, has none: each point spacing^2)
+        cell = self.arrays["plan_cell_area"] if "plan_cell_area" in self.arrays else np.zeros(0)
         return PlanarPath(uv, ij, float(h), origin=origin, rotation=float(rot), pattern=str(p.get("pattern", "unknown")),
                           pieces=pieces, unreached=unreached.reshape(-1, 2),
                           n_inside=int(len(uv) + len(unreached.reshape(-1, 2))),
-                          provenance=self._provenance("plan", "plan"), stats=stats, lattice=lattice,
-                          dwell_points_only=bool(only))
+                          provenance=prov, stats=stats, lattice=lattice, dwell_points_only=bool(only),
+                          dwell_points=str(prov.params.get("dwell_points", "grid")),
+                          cell_area=cell if len(cell) == len(uv) and len(uv) else None)
 
     @cached_property
     def surface_path(self) -> SurfacePath:

@@ -373,10 +373,13 @@ class PlanarPath:
     uv : (N, 2) float64
         Path points in path order, mm, in the plane of the region.
     ij : (N, 2) int64
-        Integer grid indices of each point: ``uv = origin + R(rotation) @ (ij * spacing)`` (the
-        nearest index for a point off the grid).
+        Integer grid indices of each dwell point: ``uv = origin + R(rotation) @ (ij * spacing)``
+        (a pattern off the grid: the nearest index). For a dwell-point set without a lattice
+        (``dwell_points="blue-noise"``) there are no grid indices: ``ij[:, 0]`` is the point's
+        number in its set (each once) and ``ij[:, 1]`` is 0.
     spacing : float
-        Grid spacing in the plane, mm.
+        Grid spacing in the plane, mm (a set without a lattice: the spacing of the square grid of
+        the same density, 1 / spacing^2 points per mm^2).
     origin : (2,) float64
         Plane position of grid index (0, 0), mm.
     rotation : float
@@ -403,6 +406,11 @@ class PlanarPath:
         True when every path point is a dwell point of the set; False for a path that also
         runs through other points (the spiral's points off the grid, a maze's points over
         the boundary).
+    dwell_points : str
+        The dwell-point set walked: ``"grid"`` (the square grid) or ``"blue-noise"`` (no lattice).
+    cell_area : (N,) float64 or None
+        Planar area each dwell point stands for, mm^2 (its Voronoi cell), in path order; None: each
+        point of the grid stands for ``spacing**2``.
     """
 
     uv: np.ndarray
@@ -418,6 +426,8 @@ class PlanarPath:
     stats: dict[str, Any] = field(default_factory=dict)
     lattice: Lattice | None = None
     dwell_points_only: bool = True
+    dwell_points: str = "grid"
+    cell_area: np.ndarray | None = None
 
     def __post_init__(self):
         if self.lattice is not None and not isinstance(self.lattice, Lattice):
@@ -428,6 +438,12 @@ class PlanarPath:
                                  "Say whether every path point is a dwell point.")
         object.__setattr__(self, "dwell_points_only", bool(self.dwell_points_only))
         uv = _frozen_array(self.uv, np.float64, 2, 2, "uv")
+        if self.cell_area is not None:
+            ca = _frozen_array(self.cell_area, np.float64, 1, None, "cell_area")
+            if len(ca) != len(uv):
+                raise ParameterError(f"cell_area has {len(ca)} values for {len(uv)} dwell points.",
+                                     "Pass one area (mm^2) per dwell point, in path order, or None.")
+            object.__setattr__(self, "cell_area", ca)
         object.__setattr__(self, "uv", uv)
         object.__setattr__(self, "ij", _frozen_array(self.ij, np.int64, 2, 2, "ij"))
         object.__setattr__(self, "origin", _frozen_array(self.origin, np.float64, 1, None, "origin"))

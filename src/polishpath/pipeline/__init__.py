@@ -99,7 +99,7 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
     for replan in range(BOUNDARY_REPLANS + 1):
         with progress.stage(f"planning {cfg.pattern} path", timings, "plan"):
             sp = plan_on_surface(flat, region, cfg.spacing, pattern=cfg.pattern, seed=cfg.seed,
-                                 spacing_on=cfg.spacing_on, start=cfg.start, margin=margin,
+                                 dwell_points=cfg.dwell_points, spacing_on=cfg.spacing_on, start=cfg.start, margin=margin,
                                  max_points=cfg.max_points, max_oversampling=cfg.max_oversampling)
         planar, spath = sp.planar, with_tool_axes(sp.surface_path, cfg.tool_axis)
         check_reach(machine, spath)

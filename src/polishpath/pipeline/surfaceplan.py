@@ -15,6 +15,7 @@ import numpy as np
 from .. import progress, resources
 from ..errors import MappingError, ParameterError, PlanningError, SpacingTooLargeError
 from ..pathops import step_mask
+from ..plan.points.blue_noise import EDGE_FACTOR
 from ..types import Flattening, PlanarPath, Region, SurfacePath
 
 SQRT2 = 2.0**0.5
@@ -53,6 +54,7 @@ def plan_on_surface(
     *,
     pattern: str = "pseudorandom",
     seed: int | None,
+    dwell_points: str = "grid",
     spacing_on: str = "surface",
     start: tuple[float, float] | None = None,
     margin: float | None = 0.0,
@@ -74,6 +76,10 @@ def plan_on_surface(
         A pattern of :data:`polishpath.plan.PATTERNS`.
     seed : int or None
         Seed of the pattern's random choices (None only for patterns without any).
+    dwell_points : {"grid", "blue-noise"}
+        The dwell-point set (see :func:`polishpath.plan.plan`). A blue-noise set's steps are its graph's
+        edges, at most ``EDGE_FACTOR`` x its planar spacing: with ``spacing_on="surface"`` no step on the
+        part exceeds ``EDGE_FACTOR`` x ``spacing`` (instead of the grid's sqrt(2)).
     spacing_on : {"surface", "plane"}
         ``surface``: the planar spacing is reduced (re-planning up to 7 times)
         until no grid step on the part exceeds sqrt(2) x ``spacing``; ``plane``:
@@ -128,11 +134,13 @@ def plan_on_surface(
                 "less closed patches; raise --max-oversampling / --max-points to go on anyway.",
             )
         m = AUTO_MARGIN_FACTOR * planar_spacing if margin is None else margin
-        return plan(region, planar_spacing, pattern, seed=seed, start=start, margin=m)
+        return plan(region, planar_spacing, pattern, seed=seed, start=start, margin=m, dwell_points=dwell_points)
 
     try:
         if spacing_on == "surface":
-            planar, spath, planar_spacing = _honour_surface_spacing(flat, spacing, planner)
+            factor = SQRT2 if dwell_points == "grid" else EDGE_FACTOR
+            planar, spath, planar_spacing = _honour_surface_spacing(flat, spacing, planner, max_step_factor=factor,
+                                                                    first_factor=SQRT2)
         else:
             planar_spacing = spacing
             planar = planner(planar_spacing)
@@ -162,13 +170,21 @@ def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
     boundary, the jump between pieces) are transit moves of the pattern, not
     dwell steps, so they do not set the spacing: where every path point is a
     dwell point of a lattice, only the lattice's neighbour steps count; else
-    (the spiral's points off the grid, a set without a lattice) every step
-    within a piece counts.
+    (the spiral's points off the grid) every step within a piece counts. A
+    dwell-point set without a lattice (blue noise): the longest edge its graph
+    may have (``EDGE_FACTOR`` x the planar spacing) times the largest 3D /
+    planar length ratio of the path's steps.
     """
     d = np.linalg.norm(np.diff(mapped.xyz, axis=0), axis=1)
     if len(d) == 0:
         return 0.0
     valid = step_mask(len(mapped.xyz), planar.pieces)
+    if planar.dwell_points != "grid":
+        # a set without a lattice: its graph's longest possible edge (EDGE_FACTOR x the planar spacing) at
+        # the largest stretch measured along the path's steps, so that a flat part keeps the spacing asked
+        d2 = np.hypot(*np.diff(planar.uv, axis=0).T)
+        ok = valid & (d2 > 0)
+        return float(EDGE_FACTOR * planar.spacing * (d[ok] / d2[ok]).max()) if ok.any() else 0.0
     if planar.lattice is not None and planar.dwell_points_only:
         valid &= planar.lattice.is_step(np.diff(planar.ij, axis=0))
     return float(d[valid].max()) if valid.any() else 0.0
@@ -180,6 +196,7 @@ def _honour_surface_spacing(
     planner: Callable[[float], PlanarPath],
     *,
     max_step_factor: float = SQRT2,
+    first_factor: float | None = None,
     start_quantile: float = 0.99,
     max_iter: int = 6,
 ) -> tuple[PlanarPath, SurfacePath, float]:
@@ -205,6 +222,9 @@ def _honour_surface_spacing(
         ``planner(planar_spacing_mm) -> PlanarPath``.
     max_step_factor : float
         Allowed largest 3D step / spacing.
+    first_factor : float or None
+        The step factor of the first try's planar spacing (None: ``max_step_factor``; a blue-noise set
+        starts where the grid does, sqrt(2)).
     start_quantile : float
         Quantile of the stretch used for the first try.
     max_iter : int
@@ -222,7 +242,7 @@ def _honour_surface_spacing(
     from ..mapping import map_to_surface, planar_spacing_for_surface
 
     limit = max_step_factor * spacing
-    h = planar_spacing_for_surface(flat, spacing, max_step_factor, quantile=start_quantile)
+    h = planar_spacing_for_surface(flat, spacing, first_factor or max_step_factor, quantile=start_quantile)
     best = None
     tries = 0
     for _ in range(max(1, max_iter)):
@@ -242,7 +262,7 @@ def _honour_surface_spacing(
             break
         h = h_next
     if best is None:
-        h = planar_spacing_for_surface(flat, spacing, max_step_factor, quantile=1.0)
+        h = planar_spacing_for_surface(flat, spacing, first_factor or max_step_factor, quantile=1.0)
         planar = planner(h)
         best = (planar, map_to_surface(flat, planar, surface_spacing=spacing), h)
         tries += 1

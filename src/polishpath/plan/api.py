@@ -14,7 +14,9 @@ from ..provenance import resolve_seed
 from ..types import Lattice, PlanarPath, Provenance, Region
 from . import baselines
 from .checks import check_index, check_options, check_point, check_region, check_seed
+from .bluewalk import GRAPH_WALK_OPTIONS, graph_walk_order
 from .dwell import DwellGrid, check_grid, dwell_grid
+from .points import DWELL_POINT_SETS, blue_noise_points
 from .pseudorandom import PSEUDORANDOM_OPTIONS, pseudorandom_order
 
 
@@ -152,6 +154,7 @@ def plan(
     margin: float = 0.0,
     origin=None,
     rotation: float = 0.0,
+    dwell_points: str = "grid",
     **options,
 ) -> PlanarPath:
     """Plan a tool path through the dwell points of a region.
@@ -179,6 +182,11 @@ def plan(
         Plane position of grid index (0, 0), mm; default centres the grid.
     rotation : float
         Grid rotation, radians.
+    dwell_points : {"grid", "blue-noise"}
+        The dwell-point set (:data:`polishpath.plan.points.DWELL_POINT_SETS`): ``"grid"``, the paper's
+        square grid; ``"blue-noise"``, a Poisson-disk set with no lattice at the grid's density, walked
+        along its planar neighbour graph (:func:`_plan_blue_noise`; pattern ``"pseudorandom"`` only, whose
+        options are then ``max_blind``, ``steer``, ``backtrack``, ``backtrack_budget``).
     **options
         Passed to the pattern (pseudo-random: ``window``, ``backtrack``,
         ``backtrack_budget``, ``max_blind``, ``shortest``, ``steer``,
@@ -206,8 +214,14 @@ def plan(
         raise ParameterError(
             f"Unknown path pattern {pattern!r}.", f"Choose one of: {', '.join(sorted(PATTERNS))}."
         )
+    if not isinstance(dwell_points, str) or dwell_points not in DWELL_POINT_SETS:
+        raise ParameterError(f"Unknown dwell-point set {dwell_points!r}.",
+                             f"Choose one of: {', '.join(DWELL_POINT_SETS)}.")
     seed = resolve_seed(seed)  # checked, or drawn when None: the one place (polishpath.provenance)
     start_pt = region.centroid if start is None else check_point(start, "The start point")
+    if dwell_points != "grid":
+        return _plan_blue_noise(region, spacing, pattern, seed=seed, start_pt=start_pt, margin=margin,
+                                origin=origin, rotation=rotation, options=options)
     t0 = time.perf_counter()
     grid = dwell_grid(region, spacing, margin=margin, origin=origin, rotation=rotation)
     t1 = time.perf_counter()
@@ -257,3 +271,44 @@ def plan(
         lattice=res.lattice,
         dwell_points_only=bool(res.dwell_points_only),
     )
+
+
+def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int, start_pt: np.ndarray, margin: float,
+                     origin, rotation: float, options: dict) -> PlanarPath:
+    """:func:`plan` on a blue-noise set (no lattice): the pseudo-random walk along its neighbour graph.
+
+    The path's ``ij`` holds each point's number in the set and 0 (there are no grid indices),
+    ``cell_area`` each point's Voronoi cell (mm^2), ``lattice`` is None.
+    """
+    if pattern != "pseudorandom":
+        raise ParameterError(
+            f"The {pattern} pattern runs on the square grid only; --dwell-points blue-noise is walked by the "
+            "pseudo-random path.", "Use --dwell-points grid with this pattern, or --pattern pseudorandom.")
+    if origin is not None or rotation:
+        raise ParameterError("origin and rotation place a grid; a blue-noise set has none.",
+                             "Leave origin and rotation out with dwell_points='blue-noise'.")
+    check_options("pseudorandom", options, GRAPH_WALK_OPTIONS)
+    t0 = time.perf_counter()
+    pts = blue_noise_points(region, spacing, seed=seed, margin=margin)
+    t1 = time.perf_counter()
+    start_idx = int(np.argmin(np.hypot(pts.uv[:, 0] - start_pt[0], pts.uv[:, 1] - start_pt[1])))
+    order, pieces, stats = graph_walk_order(pts, seed=seed, start=start_idx, **options)
+    t2 = time.perf_counter()
+    visited = np.zeros(pts.n, dtype=bool)
+    visited[order] = True
+    stats.update(n_pieces=int(len(pieces) - 1), start_point=start_idx, points_seconds=t1 - t0,
+                 grid_seconds=t1 - t0, seconds=t2 - t0, min_distance=pts.min_distance,
+                 edges=int(len(pts.indices) // 2))
+    params = {
+        "spacing": float(spacing),
+        "margin": float(margin),
+        "dwell_points": "blue-noise",
+        "start": [float(x) for x in start_pt],
+        **{k: (v if isinstance(v, (int, float, str, bool)) else repr(v)) for k, v in options.items()},
+    }
+    ij = np.stack([order, np.zeros_like(order)], axis=1)
+    return PlanarPath(
+        uv=pts.uv[order], ij=ij, spacing=float(spacing), origin=np.zeros(2), rotation=0.0, pattern=pattern,
+        pieces=pieces, unreached=pts.uv[~visited], n_inside=pts.n,
+        provenance=Provenance("plan", pattern, params, seed, __version__), stats=stats,
+        lattice=None, dwell_points_only=True, dwell_points="blue-noise", cell_area=pts.cell_area[order])

@@ -188,9 +188,19 @@ def pseudorandom_order(
     order_dense = np.concatenate(orders) if orders else np.zeros(0, np.int64)
     order = np.searchsorted(nodes, order_dense)
     pieces = np.concatenate(piece_offs)
-    stats = {
+    stats = walk_stats(tot, int(ncomp), len(pieces) - 1, grid.n, time.perf_counter() - t0)
+    return order, pieces, stats
+
+
+def walk_stats(tot: np.ndarray, ncomp: int, npieces: int, n: int, seconds: float) -> dict:
+    """The walk's figures from its counters ``tot`` (N_STATS,) (the keys of :func:`pseudorandom_order`'s stats).
+
+    Shared by the grid walk and the walk over a set without a lattice
+    (:func:`polishpath.plan.bluewalk.graph_walk_order`).
+    """
+    return {
         "components": int(ncomp),
-        "extra_pieces": int(len(pieces) - 1 - ncomp),
+        "extra_pieces": int(npieces - ncomp),
         "steps": int(tot[ST_STEPS]),
         "turnarounds": int(tot[ST_ROT]),
         "deleted": int(tot[ST_DEL]),
@@ -205,7 +215,6 @@ def pseudorandom_order(
         "kicks": int(tot[ST_KICK]),
         "escapes": int(tot[ST_ESCAPE]),
         "turnarounds_by_tenth": tot[ST_TENTHS:N_STATS].tolist(),
-        "walk_fraction": float(tot[ST_PHASE1]) / max(grid.n, 1),
-        "seconds": time.perf_counter() - t0,
+        "walk_fraction": float(tot[ST_PHASE1]) / max(n, 1),
+        "seconds": seconds,
     }
-    return order, pieces, stats

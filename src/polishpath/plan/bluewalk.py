@@ -1,0 +1,143 @@
+"""The pseudo-random walk over a dwell-point set without a lattice (``--dwell-points blue-noise``).
+
+:func:`graph_walk_order` orders the points of a
+:class:`~polishpath.plan.points.BlueNoisePoints` set along a random path of
+its neighbour graph (``_graphwalk``): every point once, short steps (graph
+edges of at most ``EDGE_FACTOR x h``), random turns, never crossing itself
+(the edges of a triangulation do not cross), never leaving the region (the
+kept edges are inside it). Graph components that are not connected at all (a
+neck narrower than about 1.7 spacings) are planned one after the other as
+separate pieces, as the grid walk does.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..errors import ParameterError
+from ._graphwalk import plan_graph_component
+from ._steps import N_STATS
+from ._component import collect_pieces
+from .checks import check_count, check_index, check_number, check_seed
+from .points.blue_noise import BlueNoisePoints, cell_lists
+from .pseudorandom import walk_stats
+
+#: The options of :func:`graph_walk_order` that ``plan(..., dwell_points="blue-noise", **options)`` passes on.
+GRAPH_WALK_OPTIONS = ("max_blind", "steer", "backtrack", "backtrack_budget")
+
+
+def check_points_set(points) -> BlueNoisePoints:
+    """``points`` when it is a :class:`BlueNoisePoints`, else :class:`~polishpath.errors.ParameterError`."""
+    if not isinstance(points, BlueNoisePoints):
+        raise ParameterError(
+            f"The dwell points must be a polishpath.plan.points.BlueNoisePoints, got {type(points).__name__}.",
+            "Build them with polishpath.plan.points.blue_noise_points(region, spacing, seed=...).")
+    return points
+
+
+def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0,
+                     max_blind: int = 10, steer: int = 32, backtrack: int = 5,
+                     backtrack_budget: float = 0.05) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Order of the dwell points along a pseudo-random path of their neighbour graph.
+
+    Parameters
+    ----------
+    points : BlueNoisePoints
+        Dwell points and their neighbour graph.
+    seed : int
+        Seed (0 <= seed < 2**63); same seed, same path. Each component gets its own numba seed drawn from it.
+    start : int
+        Point number where the path starts.
+    max_blind : int
+        Turnarounds in a row that do not free the head before the walk hands over to the end-game.
+    steer : int
+        Radius (cells of one spacing) of the search for the nearest unvisited point that blind turnarounds
+        steer toward.
+    backtrack : int
+        Points given back when no turnaround exists (the paper's step 7 uses 5); 0 disables it.
+    backtrack_budget : float
+        Total points given back, as a fraction of the component's size (in [0, 1]).
+
+    Returns
+    -------
+    order : (n,) int64
+        Point numbers in path order (each exactly once).
+    pieces : (K+1,) int64
+        Offsets of the continuous pieces in ``order`` (one per graph component, plus ``extra_pieces``).
+    stats : dict
+        ``components``, ``extra_pieces``, ``steps``, ``turnarounds``, ``blind``, ``stuck``, ``deleted``
+        (given back by step 7), ``escapes``, ``spliced``, ``appended``, ``two_opt``, ``kicks``,
+        ``subwalks``, ``joins``, ``reversed_points``, ``walk_fraction``, ``turnarounds_by_tenth``,
+        ``seconds``.
+
+    Raises
+    ------
+    ParameterError
+        Not a BlueNoisePoints; seed or start out of range; ``max_blind`` not a whole number >= 0.
+    """
+    check_points_set(points)
+    seed = check_seed(seed)
+    start = check_index(start, "The start", points.n)
+    max_blind = check_count(max_blind, "max_blind")
+    steer = check_count(steer, "steer", high=2**20)
+    backtrack = check_count(backtrack, "backtrack")
+    backtrack_budget = check_number(backtrack_budget, "backtrack_budget", low=0.0)
+    if backtrack_budget > 1:
+        raise ParameterError(f"backtrack_budget is a fraction of the points, at most 1, got {backtrack_budget!r}.",
+                             "Pass a number in [0, 1] (default 0.05).")
+    t0 = time.perf_counter()
+    n = points.n
+    indptr, indices = points.indptr, points.indices
+    graph = csr_matrix((np.ones(len(indices), dtype=np.int8), indices, indptr), shape=(n, n))
+    ncomp, lab = connected_components(graph, directed=False)
+    sort = np.argsort(lab, kind="stable")
+    bounds = np.searchsorted(lab[sort], np.arange(ncomp + 1))
+    d_start = np.hypot(*(points.uv - points.uv[start]).T)
+    comp_dist = np.minimum.reduceat(d_start[sort], bounds[:-1])
+    comp_order = np.argsort(comp_dist, kind="stable")
+    seeds = np.random.SeedSequence(seed).generate_state(max(ncomp, 1), dtype=np.uint32)
+
+    vis = np.zeros(n, dtype=np.uint8)
+    wid = np.full(n, -1, dtype=np.int32)
+    nxt = np.full(n, -1, dtype=np.int32)
+    prv = np.full(n, -1, dtype=np.int32)
+    T = np.empty((n, 6), dtype=np.int32)
+    m = int(np.diff(bounds).max())
+    stack = np.empty(m + 2, dtype=np.int32)
+    P = np.empty(m + 1, dtype=np.int32)
+    inq = np.zeros(n, dtype=np.uint8)
+    queue = np.empty(m + 1, dtype=np.int32)
+    mark = np.zeros(n, dtype=np.uint8)
+    buf = np.empty(m + 1, dtype=np.int64)
+
+    # cell lists (side one spacing) for the steering search
+    cells, cstart, x0, y0, W, H = cell_lists(points.uv, points.spacing)
+    cw = points.spacing
+    lab64 = lab.astype(np.int64)
+
+    tot = np.zeros(N_STATS, dtype=np.int64)
+    orders, piece_offs = [], [np.zeros(1, dtype=np.int64)]
+    n_done = 0
+    prev_end = points.uv[start]
+    walk_id = 1
+    for rank, c in enumerate(comp_order):
+        members = np.ascontiguousarray(sort[bounds[c]:bounds[c + 1]], dtype=np.int64)
+        s = start if rank == 0 else int(members[np.argmin(np.hypot(*(points.uv[members] - prev_end).T))])
+        tot += plan_graph_component(members, s, int(seeds[c]), walk_id, indptr, indices, vis, wid, nxt, prv, T,
+                                    stack, P, inq, queue, mark, buf, max_blind,
+                                    (points.uv, lab64, int(c), cells, cstart, float(x0), float(y0), float(cw), W, H,
+                                     steer, backtrack, int(backtrack_budget * len(members))))
+        walk_id = int(wid.max()) + 1
+        ordc, offc = collect_pieces(members, s, vis, nxt, prv)
+        orders.append(ordc)
+        piece_offs.append(offc[1:] + n_done)
+        n_done += len(ordc)
+        prev_end = points.uv[ordc[-1]]
+    order = np.concatenate(orders).astype(np.int64)
+    pieces = np.concatenate(piece_offs)
+    stats = walk_stats(tot, int(ncomp), len(pieces) - 1, n, time.perf_counter() - t0)
+    return order, pieces, stats
