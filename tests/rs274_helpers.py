@@ -51,7 +51,8 @@ class Canon:
     ``inverse_time``: (K,) bool, G93 in force; ``starts``: (K, 3) where each feed
     move began; ``centres`` (K, 2) an arc's centre (NaN: straight), ``turns`` (K,)
     its turn count (0: straight); ``group``: (K,) index of the run of feed moves
-    between rapid moves.
+    between rapid moves; ``rotary`` (K, 3) the A B C each feed move ends at (degrees) and
+    ``rotary_starts`` (K, 3) where it began.
     """
 
     returncode: int
@@ -64,6 +65,8 @@ class Canon:
     group: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     centres: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     turns: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    rotary: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    rotary_starts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def ok(self) -> bool:
@@ -102,8 +105,10 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
         if m:
             calls.append((m.group(1), m.group(2)))
     pos = np.zeros(3)
+    rot = np.zeros(3)
     rate, inv = 0.0, False
     ends, starts, rates, invs, groups, centres, turns = [], [], [], [], [], [], []
+    rots, rot_starts = [], []
     g, last = -1, "STRAIGHT_TRAVERSE"
     for name, a in calls:
         if name == "COMMENT" and "feed mode set to" in a:
@@ -114,6 +119,7 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
             v = [float(x) for x in a.split(",")]
             arc = name == "ARC_FEED"
             p = np.array([v[0], v[1], v[5]] if arc else v[:3])
+            r = np.array(v[6:9] if arc else v[3:6])
             if name != "STRAIGHT_TRAVERSE":
                 centres.append(v[2:4] if arc else [np.nan, np.nan])
                 turns.append(int(v[4]) if arc else 0)
@@ -124,7 +130,10 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
                 ends.append(p)
                 rates.append(rate)
                 invs.append(inv)
+                rots.append(r)
+                rot_starts.append(rot)
             pos = p
+            rot = r
             last = name
     c = Canon(returncode, stderr, calls)
     if ends:
@@ -132,6 +141,7 @@ def parse_canon(text: str, returncode: int = 0, stderr: str = "") -> Canon:
         c.feed_rate, c.inverse_time = np.array(rates), np.array(invs, bool)
         c.group = np.array(groups, np.int64)
         c.centres, c.turns = np.array(centres, float), np.array(turns, np.int64)
+        c.rotary, c.rotary_starts = np.array(rots), np.array(rot_starts)
     return c
 
 

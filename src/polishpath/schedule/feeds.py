@@ -25,6 +25,13 @@ forward-backward integration of time-optimal path parametrisation.
 Where no limit binds the result is exactly the planned schedule; where limits
 bind the dwell points there take longer, and the delivered time of every dwell
 point is compared with its planned time.
+
+A 5-axis path (tool axes) on a machine with kinematics
+(:mod:`polishpath.schedule.kinematics`) is scheduled the same way over five
+axes: the machine's joints X Y Z (the table's rotations move them: LinuxCNC's
+inverse transform of the tool point) and the rotary axes (degrees, from the
+continuous inverse kinematics of the samples' axes), each with its velocity
+and acceleration limit; the tangential feed limit stays the tool point's.
 """
 
 from __future__ import annotations
@@ -51,7 +58,7 @@ def _ok(s1, l1, d1, s2, l2, d2, amax, at):  # pragma: no cover - numba
     t1 = l1 / s1 if s1 > 0.0 else 0.0
     t2 = l2 / s2 if s2 > 0.0 else 0.0
     half = 0.5 * (t1 + t2)
-    for a in range(3):
+    for a in range(amax.shape[0]):
         if abs(s2 * d2[a] - s1 * d1[a]) > amax[a] * half * (1.0 + 1e-12):
             return False
     if at > 0.0 and abs(s2 - s1) > at * half * (1.0 + 1e-12):
@@ -97,11 +104,12 @@ def _best(c, other, l, d, o_s, o_l, o_d, amax, at, before):  # pragma: no cover 
 
 @numba.njit(cache=True)
 def _passes(length, dirs, cap, amax, at):  # pragma: no cover - numba
-    # one piece: segments (n,) lengths > 0, (n, 3) unit directions, (n,) speed caps, mm/s.
+    # one piece: segments (n,) lengths > 0, (n, k) axis moves per mm of path (the unit direction's
+    # three; a 5-axis machine's joints and rotary degrees per mm beside them), (n,) speed caps, mm/s.
     # backward: every segment can still slow to its successor, the last one to rest; forward: from
     # rest, as fast as the limits allow and never above the backward pass.
     n = length.shape[0]
-    zero = np.zeros(3)
+    zero = np.zeros(dirs.shape[1])
     bwd = np.empty(n)
     for k in range(n - 1, -1, -1):
         if k == n - 1:
@@ -124,8 +132,8 @@ def segment_limits(points: np.ndarray, times: np.ndarray) -> dict[str, np.ndarra
 
     Parameters
     ----------
-    points : (m, 3) float
-        Samples of one piece, mm.
+    points : (m, k) float
+        Samples of one piece, mm (k = 3; a 5-axis machine's joints and rotary angles: k = 5, degrees).
     times : (m - 1,) float
         Seconds of each segment (> 0 where the segment has length).
 
@@ -141,10 +149,10 @@ def segment_limits(points: np.ndarray, times: np.ndarray) -> dict[str, np.ndarra
     t = np.asarray(times, dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
         v = np.where(t[:, None] > 0, dp / t[:, None], 0.0)
-    keep = np.linalg.norm(dp, axis=1) > 0  # zero-length segments take no time and join nothing
+    keep = np.linalg.norm(dp, axis=1) > 0  # segments that move no axis take no time and join nothing
     v, t = v[keep], t[keep]
     speed = np.linalg.norm(v, axis=1)
-    vv = np.vstack([np.zeros((1, 3)), v, np.zeros((1, 3))])
+    vv = np.vstack([np.zeros((1, v.shape[1])), v, np.zeros((1, v.shape[1]))])
     ss = np.concatenate([[0.0], speed, [0.0]])
     tt = np.concatenate([[0.0], t, [0.0]])
     half = 0.5 * (tt[:-1] + tt[1:])
@@ -176,6 +184,18 @@ def dwell_point_times(tool_path: ToolPath, seg_times: np.ndarray) -> np.ndarray:
         rb = dwell_regions(tool_path.dwell_params[a:b], u[sa], u[sb - 1])
         out[a:b] = np.diff(np.interp(rb, u[sa:sb], tt))
     return out
+
+
+def _rotary_peaks(angles: np.ndarray, seg_t: np.ndarray, spieces: np.ndarray) -> list[float]:
+    """The largest velocity of each rotary axis, degrees/min, over the timed samples (``seg_t``: (M,) s)."""
+    peak = np.zeros(angles.shape[1])
+    for a, b in zip(spieces[:-1], spieces[1:]):
+        t = seg_t[a + 1 : b]
+        if b - a < 2 or not np.any(t > 0):
+            continue
+        v = np.abs(np.diff(angles[a:b], axis=0))[t > 0] / t[t > 0, None]
+        peak = np.maximum(peak, v.max(axis=0))
+    return [float(x) * 60.0 for x in peak]
 
 
 def _errors(delivered: np.ndarray, wanted: np.ndarray) -> dict[str, float]:
@@ -214,6 +234,12 @@ def schedule_feeds(tool_path: ToolPath, machine: MachineProfile) -> tuple[ToolPa
     spieces = tool_path.sample_pieces
     amax = np.asarray(machine.max_acceleration_mm_s2, dtype=np.float64)
     vmax = np.asarray(machine.max_velocity_mm_min, dtype=np.float64) / 60.0
+    kin = machine.kinematics if tool_path.sample_axes is not None else None
+    if kin is not None:  # 5-axis: the joints' and rotary axes' limits (degrees/s, degrees/s^2)
+        angles_all = kin.angles(tool_path.sample_axes)
+        joints_all = kin.joints(s, angles_all)
+        amax = np.concatenate([amax, kin.max_acceleration_deg_s2])
+        vmax = np.concatenate([vmax, np.asarray(kin.max_velocity_deg_min) / 60.0])
     at = float(machine.max_tangential_acceleration_mm_s2 or 0.0)
     fmax = machine.max_feed_mm_min / 60.0
     new_speed = feed / 60.0  # (M,) speed arriving at each sample, mm/s (a new array)
@@ -230,6 +256,8 @@ def schedule_feeds(tool_path: ToolPath, machine: MachineProfile) -> tuple[ToolPa
         nz = ln > 0
         if not nz.any():
             continue
+        if kin is not None:  # the five axes' moves per mm of the tool point's path
+            dp = np.column_stack([np.diff(joints_all[a:b], axis=0), np.diff(angles_all[a:b], axis=0)])
         L, D, P = ln[nz], dp[nz] / ln[nz, None], plan[nz]
         with np.errstate(divide="ignore"):
             axis_cap = np.min(np.where(np.abs(D) > 0, vmax / np.abs(D), np.inf), axis=1)
@@ -263,6 +291,9 @@ def schedule_feeds(tool_path: ToolPath, machine: MachineProfile) -> tuple[ToolPa
         "points_over_1pct": int(np.sum(rel > 0.01)),
         "worst_points": [{"index": int(i), "error": float(rel[i])} for i in order if abs(rel[i]) > 1e-9],
     }
+    if kin is not None:
+        report["kinematics"] = kin.type
+        report["rotary_velocity_max_deg_min"] = _rotary_peaks(angles_all, new_t, spieces)
     if wish is not None:
         report["dwell_time_error_vs_wish"] = _errors(delivered, wish)
         report["schedule_error_vs_wish"] = _errors(planned, wish)
