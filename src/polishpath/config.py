@@ -31,8 +31,12 @@ from typing import Any, Callable
 from .defaults import (
     DEFAULT_CHORD_TOL_MM,
     DEFAULT_FEED_MM_MIN,
+    DEFAULT_FLATTEN_METHOD,
     DEFAULT_INTEGRATOR,
+    DEFAULT_MAX_OVERSAMPLING,
+    DEFAULT_MAX_POINTS,
     DEFAULT_PERIOD_MS,
+    DEFAULT_SPACING_MM,
     INTEGRATOR_NAMES,
 )
 from .errors import ParameterError, SpecError
@@ -205,14 +209,16 @@ class JobConfig:
     scale: float | None = option(None, "--scale", help="Extra scale factor for a mesh file, to millimetres.",
                                  positive=True)
     component: str = option("refuse", "--component", help="Several pieces: 'refuse' (default) or 'largest'.")
-    method: str = option("mabf", "--method", "-m", help="Flattening: mabf (default), abf, lscm, projection.")
+    method: str = option(DEFAULT_FLATTEN_METHOD, "--method", "-m",
+                         help=f"Flattening: mabf, abf, lscm, projection (default {DEFAULT_FLATTEN_METHOD}).")
     pattern: str = option("pseudorandom", "--pattern", "-p",
                           help="pseudorandom (default), raster, spiral, rectangular, or a peer: unicursal, maze, "
                                "fractal, hilbert.")
     dwell_points: str = option("grid", "--dwell-points", choices=("grid", "blue-noise"),
                                help="Dwell points: 'grid' (default: the paper's square grid) or 'blue-noise' "
                                     "(no lattice; pseudorandom pattern only).")
-    spacing: float = option(0.5, "--spacing", "-s", help="Dwell-point spacing on the part, mm (default 0.5).",
+    spacing: float = option(DEFAULT_SPACING_MM, "--spacing", "-s",
+                            help=f"Dwell-point spacing on the part, mm (default {DEFAULT_SPACING_MM:g}).",
                             positive=True)
     spacing_on: str = option("surface", "--spacing-on", choices=("surface", "plane"),
                              help="'surface' (default: no step on the part over sqrt(2) x spacing) or 'plane'.")
@@ -294,7 +300,7 @@ class JobConfig:
     remesh: str = option("auto", "--remesh", parse=remesh_choice, cli_type=str,
                          help="Refine a CAD-style sliver mesh before flattening, keeping its surface exactly: 'auto' "
                               "(default: only when slivers cover > 5 % of the area), 'off', or an edge length in mm.")
-    max_points: int = option(5_000_000, "--max-points", help="Refuse to plan more dwell points than this.",
+    max_points: int = option(DEFAULT_MAX_POINTS, "--max-points", help="Refuse to plan more dwell points than this.",
                              positive=True)
     samples: str = option(
         "auto", "--samples", choices=("auto", "memory", "stream"),
@@ -303,7 +309,7 @@ class JobConfig:
              f"{STREAM_ABOVE_SAMPLES / 1e6:g} M expected samples or when holding them would not fit; --machine and "
              "--error-map need them held.")
     max_oversampling: float = option(
-        16.0, "--max-oversampling", positive=True,
+        DEFAULT_MAX_OVERSAMPLING, "--max-oversampling", positive=True,
         help="Refuse when honouring the spacing on the part needs more than this many times the dwell points of a "
              "uniform grid on the part.")
 

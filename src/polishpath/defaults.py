@@ -1,11 +1,16 @@
 """One place for each default the stages share.
 
-The smoothing stage, the simulation, the job's options and the command line
-import these, so a default is changed here and nowhere else.
+The stages, the simulation, the job's options (``config.JobConfig``) and the
+command line import these, so a default is changed here and nowhere else
+(``tests/test_defaults.py`` checks that the command line's options and the
+API functions agree with them).
 """
 
 #: nominal feed of the tool along the path, mm/min
 DEFAULT_FEED_MM_MIN = 600.0
+#: the machine's feed limit where none is given, as a multiple of the nominal feed (smoothing, the
+#: simulation's machine timing, the figuring's fastest pass)
+MAX_FEED_FACTOR = 5.0
 #: interpolation period of the machine's constant-period samples, ms
 DEFAULT_PERIOD_MS = 4.0
 #: largest allowed chord error between the samples and the NURBS, mm (1 um)
@@ -19,3 +24,20 @@ DEFAULT_INTEGRATOR = "taylor"
 FIGURING_FLOOR_MAX_SHARE = 1.0
 #: the parameters a refusal suggests bring the floor down to this share of the error's PV
 FIGURING_FLOOR_ADVICE_SHARE = 0.2
+#: flattening method (the paper's MABF)
+DEFAULT_FLATTEN_METHOD = "mabf"
+#: dwell-point spacing on the part, mm
+DEFAULT_SPACING_MM = 0.5
+#: the job refuses to plan more dwell points than this (memory and time: about 1 KB and 50 us each)
+DEFAULT_MAX_POINTS = 5_000_000
+#: ... or, to honour the spacing on the part, more than this many times a uniform grid's dwell points
+DEFAULT_MAX_OVERSAMPLING = 16.0
+#: the paper's tool: polishing sponge rotating at 230 rpm (section 6), 1/min; also the program's spindle speed
+DEFAULT_RPM = 230.0
+#: contact radius of the sponge on the part, mm (assumption: the paper gives no size; see docs/simulation.md)
+DEFAULT_CONTACT_RADIUS_MM = 2.0
+#: pressure profile of the contact: a sponge (open-cell foam) acts as a bed of springs (Winkler
+#: foundation), so the pressure follows the local compression of a rounded tip, 1 - r^2/R^2
+DEFAULT_PRESSURE = "parabolic"
+#: default Gaussian TIF of a small sponge tool: peak removal rate, nm/s
+DEFAULT_PEAK_RATE_NM_S = 5.0

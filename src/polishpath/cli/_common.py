@@ -217,7 +217,16 @@ def _remesh_help() -> str:
     return FIELDS["remesh"].metadata["help"]
 
 
+def job_default(name: str) -> Any:
+    """The default of job option ``name`` (``config.JobConfig``): what a command's flag of the same name starts
+    from, so the command line and the API never disagree (tests/test_defaults.py)."""
+    from ..config import FIELDS
+
+    return FIELDS[name].default
+
+
 REMESH_HELP = _remesh_help()
-COMPONENT_OPT = typer.Option("refuse", "--component", help="Several pieces in the mesh: 'refuse' (default) or 'largest'.")
+COMPONENT_OPT = typer.Option(job_default("component"), "--component",
+                             help="Several pieces in the mesh: 'refuse' (default) or 'largest'.")
 
 

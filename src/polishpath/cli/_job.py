@@ -20,6 +20,7 @@ from ._common import (
     _print_json,
     _quiet,
     app,
+    job_default,
 )
 
 
@@ -85,9 +86,9 @@ def info_cmd(
 @app.command("flatten")
 def flatten_cmd(
     surface: str = SURFACE_ARG,
-    method: str = typer.Option("mabf", "--method", "-m", help="mabf (default), abf, lscm, projection."),
+    method: str = typer.Option(job_default("method"), "--method", "-m", help="mabf (default), abf, lscm, projection."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", help="Write an OBJ: v = 3D, vt = planar (mm)."),
-    remesh: str = typer.Option("auto", "--remesh", help=REMESH_HELP),
+    remesh: str = typer.Option(job_default("remesh"), "--remesh", help=REMESH_HELP),
     json_out: bool = typer.Option(False, "--json", help="Print the distortion metrics as JSON."),
     units: Optional[str] = UNITS_OPT,
     scale: Optional[float] = SCALE_OPT,

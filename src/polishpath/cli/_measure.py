@@ -7,17 +7,17 @@ from typing import Optional
 
 import typer
 
-from ..defaults import DEFAULT_FEED_MM_MIN
+from ..defaults import DEFAULT_CONTACT_RADIUS_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PEAK_RATE_NM_S, DEFAULT_PRESSURE, DEFAULT_RPM
 
-from ._common import COMPONENT_OPT, SCALE_OPT, UNITS_OPT, _guard, _print_json, _quiet, app
+from ._common import COMPONENT_OPT, SCALE_OPT, UNITS_OPT, _guard, _print_json, _quiet, app, job_default
 
 
 @app.command("simulate")
 def simulate_cmd(
     target: str = typer.Argument(..., metavar="SURFACE_OR_RUN_DIR", help="A surface (compare the path patterns on it), or the folder of a finished `polishpath plan ... -o DIR` run (simulate that run's own path on its part)."),
     patterns: str = typer.Option("pseudorandom,raster,spiral,rectangular", "--patterns", help="SURFACE: comma-separated path patterns to compare."),
-    spacing: float = typer.Option(0.5, "--spacing", "-s", help="SURFACE: dwell-point spacing, mm, on the part as in `plan` (with --spacing-on plane: in the flattened plane). A run keeps its own."),
-    spacing_on: str = typer.Option("surface", "--spacing-on", help="SURFACE: where --spacing holds, 'surface' (the part, as in `plan`) or 'plane' (the flattened plane)."),
+    spacing: float = typer.Option(job_default("spacing"), "--spacing", "-s", help="SURFACE: dwell-point spacing, mm, on the part as in `plan` (with --spacing-on plane: in the flattened plane). A run keeps its own."),
+    spacing_on: str = typer.Option(job_default("spacing_on"), "--spacing-on", help="SURFACE: where --spacing holds, 'surface' (the part, as in `plan`) or 'plane' (the flattened plane)."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Base seed of the planner, the initial surface and the process noise (default 0; RUN_DIR: the run's seed)."),
     seeds: int = typer.Option(5, "--seeds", help="SURFACE: run the random inputs (the pseudo-random path, the initial surface, the noise) over N seeds, seed i = base seed + i; figures are mean [min, max]."),
     mode: str = typer.Option("process", "--mode", help="SURFACE: 'process' (rough start, process noise, pad smoothing) or 'interference-free' (flat start, no noise: only the path's own marks)."),
@@ -28,15 +28,15 @@ def simulate_cmd(
     dx: Optional[float] = typer.Option(None, "--dx", help="Simulation pixel pitch, mm (SURFACE default 0.005: 5 um resolves 100 1/mm; RUN_DIR default: the finest of 5 um that keeps the whole part within 4 M pixels)."),
     plane: str = typer.Option("auto", "--plane", help="RUN_DIR: 'xy' (the part's projected x, y), 'unrolled' (the flattening's plane, depth corrected by its area ratio) or 'auto' (xy for a height field with slopes <= 30 deg, else unrolled)."),
     timing: str = typer.Option("machine", "--timing", help="'machine' (default: the constant-period samples the job's smoothing and feed schedule run, slow-downs included) or 'ideal' (each dwell point's time exactly as asked; RUN_DIR also calls it 'dwell')."),
-    rpm: float = typer.Option(230.0, "--rpm", help="Tool spin, 1/min (the paper's sponge: 230)."),
-    radius: float = typer.Option(2.0, "--radius", help="Tool contact radius, mm."),
-    pressure: str = typer.Option("parabolic", "--pressure", help="Contact pressure profile: parabolic, hertz, uniform, gaussian."),
+    rpm: float = typer.Option(DEFAULT_RPM, "--rpm", help=f"Tool spin, 1/min (the paper's sponge: {DEFAULT_RPM:g})."),
+    radius: float = typer.Option(DEFAULT_CONTACT_RADIUS_MM, "--radius", help="Tool contact radius, mm."),
+    pressure: str = typer.Option(DEFAULT_PRESSURE, "--pressure", help="Contact pressure profile: parabolic, hertz, uniform, gaussian."),
     feed: float = typer.Option(DEFAULT_FEED_MM_MIN, "--feed", help="Nominal feed of the tool model, mm/min (RUN_DIR: the run's own feed schedule moves the tool)."),
     fwhm: Optional[float] = typer.Option(None, "--fwhm", help="Use a plain Gaussian tool influence function of this FWHM (mm) instead of the rotating tool."),
-    rate: float = typer.Option(5.0, "--rate", help="Peak removal rate of the Gaussian TIF (with --fwhm), nm/s."),
+    rate: float = typer.Option(DEFAULT_PEAK_RATE_NM_S, "--rate", help="Peak removal rate of the Gaussian TIF (with --fwhm), nm/s."),
     depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (SURFACE: sets the dwell time per point; RUN_DIR: scales the tool's rate)."),
     time_model: Optional[str] = typer.Option(None, "--time-model", help="SURFACE: override --timing with a time model: 'segments' (continuous motion), 'points' (stop and dwell) or 'machine' (NURBS at the interpolation period, the simulation's own)."),
-    method: str = typer.Option("mabf", "--method", "-m", help="SURFACE: flattening, mabf (default), abf, lscm, projection."),
+    method: str = typer.Option(job_default("method"), "--method", "-m", help="SURFACE: flattening, mabf (default), abf, lscm, projection."),
     units: Optional[str] = UNITS_OPT,
     scale: Optional[float] = SCALE_OPT,
     component: str = COMPONENT_OPT,

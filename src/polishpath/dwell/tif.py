@@ -14,12 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import DEFAULT_PEAK_RATE_NM_S  # the Gaussian TIF's peak rate, nm/s
 from ..errors import ParameterError
 
 FWHM_PER_SIGMA = 2.0 * np.sqrt(2.0 * np.log(2.0))
 
-#: default Gaussian TIF of a small sponge tool: peak removal rate, nm/s
-DEFAULT_PEAK_RATE_NM_S = 5.0
 #: default full width at half maximum of the removal footprint, mm
 DEFAULT_FWHM_MM = 1.0
 

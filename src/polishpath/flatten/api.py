@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from .. import meshops
+from ..defaults import DEFAULT_FLATTEN_METHOD
 from ..errors import FlatteningError, ParameterError
 from ..types import Flattening, Provenance, Region, Surface
 from .metrics import flattening_metrics
@@ -59,7 +60,7 @@ def normalize_uv(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> np.
 
 def flatten(
     surface: Surface,
-    method: str = "mabf",
+    method: str = DEFAULT_FLATTEN_METHOD,
     *,
     layout: str | None = None,
     check: bool = True,

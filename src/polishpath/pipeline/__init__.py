@@ -23,7 +23,7 @@ import numpy as np
 from .. import progress, resources
 from ..axes import with_tool_axes
 from ..config import JobConfig, parse_job
-from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
+from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS, MAX_FEED_FACTOR
 from ..errors import ParameterError, PlanningError
 from ..provenance import resolve_seed
 from ..types import Surface, SurfacePath
@@ -275,7 +275,7 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_
     feed = cfg.feed_mm_min or DEFAULT_FEED_MM_MIN
     machine = machine_profile(cfg)
     # the machine's feed limit: [error_map] max_feed_mm_min, else the profile's, else the smoothing stage's default
-    default_max = min(5.0 * feed, machine.max_feed_mm_min) if machine is not None else 5.0 * feed
+    default_max = min(MAX_FEED_FACTOR * feed, machine.max_feed_mm_min) if machine is not None else MAX_FEED_FACTOR * feed
     max_feed = float(o.get("max_feed_mm_min", default_max))
     kw = {k: v for k, v in (smooth_kw or {}).items() if k not in ("dwell_times", "feed_mm_min", "max_feed_mm_min")}
     fastest = smooth(spath, **kw, feed_mm_min=max_feed, max_feed_mm_min=max_feed)

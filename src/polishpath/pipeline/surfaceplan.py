@@ -13,6 +13,7 @@ from typing import Callable
 import numpy as np
 
 from .. import progress, resources
+from ..defaults import DEFAULT_MAX_OVERSAMPLING, DEFAULT_MAX_POINTS
 from ..errors import MappingError, ParameterError, PlanningError, SpacingTooLargeError
 from ..pathops import step_mask
 from ..plan.points.blue_noise import EDGE_FACTOR
@@ -58,8 +59,8 @@ def plan_on_surface(
     spacing_on: str = "surface",
     start: tuple[float, float] | None = None,
     margin: float | None = 0.0,
-    max_points: int = 5_000_000,
-    max_oversampling: float = 16.0,
+    max_points: int = DEFAULT_MAX_POINTS,
+    max_oversampling: float = DEFAULT_MAX_OVERSAMPLING,
 ) -> SurfacePlan:
     """Plan a path on a flattened part and map it back: the one place plan and map are wired.
 

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import DEFAULT_SPACING_MM, MAX_FEED_FACTOR
 from ..errors import ParameterError
 from ..pathops import piece_offsets
 from ..types import PlanarPath, Provenance, SurfacePath
@@ -34,9 +35,9 @@ __all__ = ["COMPARE_TIMINGS", "machine_timed_path"]
 COMPARE_TIMINGS = ("machine", "ideal")
 
 
-def machine_timed_path(xy, dwell_s, pieces=None, *, spacing_mm: float = 0.5, machine=None,
+def machine_timed_path(xy, dwell_s, pieces=None, *, spacing_mm: float = DEFAULT_SPACING_MM, machine=None,
                        period_ms: float | None = None, chord_tol_mm: float | None = None,
-                       max_feed_factor: float = 5.0) -> tuple[TimedPath, dict[str, Any]]:
+                       max_feed_factor: float = MAX_FEED_FACTOR) -> tuple[TimedPath, dict[str, Any]]:
     """The constant-period samples the job would run along planar dwell points, with each move's time.
 
     Parameters

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..defaults import MAX_FEED_FACTOR
 from ..errors import ParameterError
 from ..pathops import piece_offsets, piece_slices
 
@@ -164,7 +165,8 @@ def path_motion_samples(path_xy, dwell_s, step_mm: float, pieces=None, time_mode
 
 
 def _machine_samples(p: np.ndarray, t: np.ndarray, step_mm: float, pieces, *, period_ms: float | None = None,
-                     chord_tol_mm: float | None = None, max_feed_factor: float = 5.0, schedule_passes: int = 3):
+                     chord_tol_mm: float | None = None, max_feed_factor: float = MAX_FEED_FACTOR,
+                     schedule_passes: int = 3):
     """Samples of the NURBS-smoothed path at a constant interpolation period (see :func:`path_motion_samples`)."""
     from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_PERIOD_MS
     from ..smooth import interpolate_constant_period, interpolate_nurbs

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import DEFAULT_SPACING_MM
 from ..errors import ParameterError
 from ..types import Region
 from .compare import check_comparison, compare_planned
@@ -36,7 +37,7 @@ def patch_bounds_at_centre(region: Region, patch_mm: float | None):
 
 
 def compare_patterns(region_or_size: Region | float = 20.0,
-                     patterns=("pseudorandom", "raster", "spiral", "rectangular"), spacing: float = 0.5,
+                     patterns=("pseudorandom", "raster", "spiral", "rectangular"), spacing: float = DEFAULT_SPACING_MM,
                      seed: int = 0, *, seeds: int = 5, patch_mm: float | None = None, **kw) -> dict[str, Any]:
     """Plan each pattern in a planar region, then :func:`compare_planned` (the Table 4 analogue on a plane).
 

@@ -34,16 +34,10 @@ from typing import Any
 import numpy as np
 
 # feed, mm/min: the job's default (middle of the 100-2000 mm/min range of small-tool polishing)
-from ..defaults import DEFAULT_FEED_MM_MIN
+# the paper's tool (rpm), its contact radius and pressure profile: polishpath.defaults says why
+from ..defaults import DEFAULT_CONTACT_RADIUS_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PRESSURE, DEFAULT_RPM
 from ..errors import ParameterError
 
-#: the paper's tool: polishing sponge rotating at 230 rpm (section 6)
-DEFAULT_RPM = 230.0
-#: contact radius of the sponge on the part, mm (assumption: the paper gives no size; see docs/simulation.md)
-DEFAULT_CONTACT_RADIUS_MM = 2.0
-#: pressure profile of the contact: a sponge (open-cell foam) acts as a bed of springs (Winkler
-#: foundation), so the pressure follows the local compression of a rounded tip, 1 - r^2/R^2
-DEFAULT_PRESSURE = "parabolic"
 #: peak removal rate at zero feed, nm/s (sets the time scale only; compare_patterns rescales it to the depth wanted)
 DEFAULT_ROTATING_PEAK_RATE_NM_S = 100.0
 

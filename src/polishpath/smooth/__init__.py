@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from .. import progress
-from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS
+from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS, MAX_FEED_FACTOR
 from ..errors import ParameterError, SmoothingError
 from ..pathops import step_mask
 from ..types import NurbsCurve, Provenance, SampleSchedule, SurfacePath, ToolPath
@@ -274,7 +274,7 @@ def smooth(
         Scale the default uniform dwell time by the part area each point stands
         for (``SurfacePath.dwell_weight``), so uniform removal stays uniform.
     max_feed_mm_min : float, optional
-        Machine feed limit, mm/min (default 5 x ``feed_mm_min``).
+        Machine feed limit, mm/min (default ``defaults.MAX_FEED_FACTOR`` = 5 x ``feed_mm_min``).
     surface : Surface, optional
         The mesh, to measure the curve's deviation from it between dwell points
         and how far samples leave it over its boundary.
@@ -330,7 +330,7 @@ def smooth(
         raise ParameterError(f"chunk_samples must be a whole number of samples >= 1, got {chunk_samples!r}.",
                              "Give e.g. chunk_samples=262144.")
     if max_feed_mm_min is None:
-        max_feed_mm_min = 5.0 * feed_mm_min
+        max_feed_mm_min = MAX_FEED_FACTOR * feed_mm_min
     pieces = _pieces_of(surface_path)
     curves, params, lens = [], [], []
     for k in range(len(pieces) - 1):

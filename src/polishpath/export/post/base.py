@@ -37,6 +37,7 @@ from typing import Any, ClassVar, Iterable
 import numpy as np
 
 from ..._version import __version__
+from ...defaults import DEFAULT_RPM
 from ...errors import ParameterError
 from ...types import Surface, ToolPath
 from ..chunks import SampleChunk, axes_at, checked_chunks, dwell_offsets, normals_at, sample_chunks
@@ -143,7 +144,7 @@ class PostSettings:
     preamble: str = "G21 G90 G17"
     safety_block: str = "G40 G49 G80 G54"
     blending: str = ""
-    spindle_rpm: float = 230.0
+    spindle_rpm: float = DEFAULT_RPM
     coolant_on: str = "M8"
     clearance_mm: float = 5.0
     approach_mm: float = 2.0
