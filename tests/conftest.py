@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -48,6 +49,11 @@ _WARM_UP = [sys.executable, "-m", "polishpath", "plan", "hemisphere:R=12,triangl
             "--seed", "8", "--no-report", "-q", "-o"]
 
 
+# wall seconds of the warm-up job (empty when it did not run), said in pytest's summary: pytest's own "in N s"
+# starts after it (benchmarks/bench_first_run.py reads the line)
+_WARM_UP_SECONDS: list[float] = []
+
+
 def _workers(config: pytest.Config) -> int:
     """How many xdist workers this run starts (0 in one process, and inside a worker)."""
     if hasattr(config, "workerinput"):
@@ -68,6 +74,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     if _workers(session.config) < 2 or session.config.option.collectonly:
         return
     env = dict(os.environ, PYTHONPATH=str(REPO / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="polishpath-warm-up-") as d:
         try:
             r = subprocess.run([*_WARM_UP, str(Path(d) / "out")], capture_output=True, text=True, env=env,
@@ -76,6 +83,14 @@ def pytest_sessionstart(session: pytest.Session) -> None:
             print("\nnote: the numba warm-up job took over 900 s; the workers compile what it missed",
                   file=sys.stderr)
             return
+        finally:
+            _WARM_UP_SECONDS.append(time.perf_counter() - t0)
     if r.returncode != 0:
         print(f"\nnote: the numba warm-up job failed (exit {r.returncode}); the tests will say why\n"
               f"{r.stderr[-2000:]}", file=sys.stderr)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
+    """Say how long the numba warm-up job took before the workers started (not in pytest's "in N s")."""
+    if _WARM_UP_SECONDS:
+        terminalreporter.write_line(f"numba warm-up job before the workers: {_WARM_UP_SECONDS[0]:.1f} s")
