@@ -6,6 +6,7 @@ the paper reproduction, the simulation's pattern comparison and the benchmarks c
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -38,7 +39,7 @@ class SurfacePlan:
     surface_path : SurfacePath
         The same points on the part, ``xyz`` (N, 3) mm; with ``spacing_on="surface"``
         its ``stats`` also hold ``planar_spacing``, ``step_reduction_factor``,
-        ``replans`` and ``grid_step_max`` (mm).
+        ``replans``, ``neighbour_spacing_max`` and ``grid_step_max`` (mm).
     planar_spacing : float
         The planar grid spacing used, mm (the spacing itself with ``spacing_on="plane"``).
     """
@@ -82,9 +83,11 @@ def plan_on_surface(
         edges, at most ``EDGE_FACTOR`` x its planar spacing: with ``spacing_on="surface"`` no step on the
         part exceeds ``EDGE_FACTOR`` x ``spacing`` (instead of the grid's sqrt(2)).
     spacing_on : {"surface", "plane"}
-        ``surface``: the planar spacing is reduced (re-planning up to 7 times)
-        until no grid step on the part exceeds sqrt(2) x ``spacing``; ``plane``:
-        one plain planar grid of ``spacing``.
+        ``surface``: the planar spacing is adjusted (re-planning up to 7 times)
+        until neighbouring dwell points, and neighbouring passes, are at most
+        ``spacing`` apart on the part (diagonal neighbours ``sqrt(2) x spacing``),
+        the same rule for every pattern (:func:`neighbour_spacing_max`);
+        ``plane``: one plain planar grid of ``spacing``.
     start : (u, v) or None
         Planar start point, mm; None: the dwell point nearest the region's centre.
     margin : float or None
@@ -126,7 +129,7 @@ def plan_on_surface(
         uniform = surface_area / spacing**2
         if estimate > max_points or estimate > max_oversampling * uniform:
             raise PlanningError(
-                f"keeping steps under sqrt(2) x {spacing:g} mm on the part needs a planar spacing of "
+                f"keeping neighbouring dwell points within {spacing:g} mm on the part needs a planar spacing of "
                 f"{planar_spacing:.3g} mm, about {estimate:.3g} dwell points where a uniform grid on the part "
                 f"would have {uniform:.3g}: the {flat.provenance.method} flattening of {surface.name} stretches "
                 f"part of it {spacing / planar_spacing:.3g} times (mean |log area ratio| "
@@ -139,9 +142,7 @@ def plan_on_surface(
 
     try:
         if spacing_on == "surface":
-            factor = SQRT2 if dwell_points == "grid" else EDGE_FACTOR
-            planar, spath, planar_spacing = _honour_surface_spacing(flat, spacing, planner, max_step_factor=factor,
-                                                                    first_factor=SQRT2)
+            planar, spath, planar_spacing = _honour_surface_spacing(flat, spacing, planner, region=region)
         else:
             planar_spacing = spacing
             planar = planner(planar_spacing)
@@ -165,7 +166,7 @@ def plan_on_surface(
 
 
 def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
-    """Largest 3D step between consecutive dwell points that are grid neighbours, mm.
+    """Largest 3D step between consecutive dwell points that are grid neighbours, mm (a reported figure).
 
     Moves that are not grid steps (a raster's connecting chord along the
     boundary, the jump between pieces) are transit moves of the pattern, not
@@ -191,28 +192,139 @@ def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
     return float(d[valid].max()) if valid.any() else 0.0
 
 
+#: points per block when neighbour pairs are measured (bounds the temporary memory at 10^7 points)
+_PAIR_BLOCK = 1 << 20
+#: the most stretched pairs of each block kept for the check that their segment stays on the part
+_PAIR_CANDIDATES = 64
+
+
+def _lattice_pairs(ij: np.ndarray, offsets: np.ndarray):
+    """Blocks of (a, b) index arrays of the dwell points that are lattice neighbours (``offsets`` (K, 2) apart).
+
+    Each pair once: of an offset and its opposite only the one pointing up (or right) is used.
+    """
+    half = [(int(a), int(b)) for a, b in offsets if a > 0 or (a == 0 and b > 0)]
+    lo = ij.min(axis=0)
+    W, H = (int(x) for x in ij.max(axis=0) - lo + 1)
+    dense = np.full((H, W), -1, dtype=np.int64)  # the lattice's points by index: O(N) neighbour look-ups
+    rel = ij - lo
+    dense[rel[:, 1], rel[:, 0]] = np.arange(len(ij))
+    for c0 in range(0, len(ij), _PAIR_BLOCK):
+        r = rel[c0:c0 + _PAIR_BLOCK]
+        a_all = np.arange(c0, c0 + len(r))
+        for oi, oj in half:
+            ii, jj = r[:, 0] + oi, r[:, 1] + oj
+            ok = (ii >= 0) & (ii < W) & (jj >= 0) & (jj < H)
+            b = dense[jj[ok], ii[ok]]
+            yield a_all[ok][b >= 0], b[b >= 0]
+
+
+def _near_pairs(uv: np.ndarray, radius: float):
+    """Blocks of (a, b) index arrays (a < b) of the points at most ``radius`` apart in the plane (k-d tree)."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(uv)
+    k = 13  # 8 lattice-like neighbours within sqrt(2) h with room for a denser, irregular set
+    for c0 in range(0, len(uv), _PAIR_BLOCK // k):
+        dist, nb = tree.query(uv[c0:c0 + _PAIR_BLOCK // k], k=k, distance_upper_bound=radius)
+        a = np.repeat(np.arange(c0, c0 + len(nb)), k).reshape(nb.shape)
+        ok = np.isfinite(dist) & (nb > a)
+        yield a[ok], nb[ok]
+
+
+def neighbour_spacing_max(planar: PlanarPath, mapped: SurfacePath, region: Region | None = None) -> float:
+    """The largest spacing on the part between neighbouring dwell points, mm: what ``spacing`` bounds.
+
+    One meaning for every pattern: two dwell points are neighbours when they
+    are lattice neighbours (``planar.lattice.neighbour_offsets`` apart: axial or
+    diagonal on the square grid) for a path through the dwell points of a
+    lattice, or else (a spiral's points off the grid, a set without a lattice)
+    when they lie at most ``sqrt(2) h`` apart in the plane (``h`` the planar
+    spacing) or are consecutive in a piece of the path (a blue-noise walk's
+    edges, up to ``EDGE_FACTOR x h``: no step then exceeds its planar length / h x
+    the bound on the part). Each pair is scaled to an
+    axial neighbour: its distance on the part x ``h`` / its distance in the
+    plane. So a bound ``s`` on this figure says: no axial neighbours, and no
+    neighbouring passes (a raster's rows, a spiral's turns), more than ``s``
+    apart on the part, and no diagonal neighbours more than ``sqrt(2) s``.
+    Measured on the dwell set, not on the path's own steps, so every pattern
+    planned at the same ``h`` on the same flattening gets the same figure.
+
+    Parameters
+    ----------
+    planar : PlanarPath
+        Dwell points ``uv`` (N, 2) mm and grid indices ``ij`` (N, 2); ``spacing`` ``h`` mm.
+    mapped : SurfacePath
+        The same points on the part, ``xyz`` (N, 3) mm.
+    region : Region, optional
+        The planning region, mm: a pair whose planar segment leaves it (across a
+        notch of the boundary) is not a pair of neighbours on the part.
+
+    Returns
+    -------
+    float
+        mm (0.0 for fewer than two points).
+    """
+    uv, xyz, h = planar.uv, mapped.xyz, float(planar.spacing)
+    if len(uv) < 2:
+        return 0.0
+    lat = planar.lattice
+    if lat is not None and planar.dwell_points_only:
+        blocks = _lattice_pairs(planar.ij, lat.neighbour_offsets)
+    else:  # near pairs, and the path's own steps (a blue-noise walk's edges reach EDGE_FACTOR x h)
+        steps = np.flatnonzero(step_mask(len(uv), planar.pieces))
+        blocks = itertools.chain(_near_pairs(uv, SQRT2 * h * (1 + 1e-6)), [(steps, steps + 1)])
+    cand_r, cand_a, cand_b = [], [], []
+    for a, b in blocks:
+        if len(a) == 0:
+            continue
+        d2 = np.linalg.norm(uv[a] - uv[b], axis=1)
+        keep = d2 > 1e-9 * h  # a point planned twice is not a pair
+        a, b, d2 = a[keep], b[keep], d2[keep]
+        ratio = np.linalg.norm(xyz[a] - xyz[b], axis=1) / d2
+        top = np.argsort(ratio)[-_PAIR_CANDIDATES:]
+        cand_r.append(ratio[top])
+        cand_a.append(a[top])
+        cand_b.append(b[top])
+    if not cand_r:
+        return 0.0
+    r = np.concatenate(cand_r)
+    order = np.argsort(r)[::-1]
+    if region is not None:
+        import shapely
+
+        from ..plan.dwell import region_polygon
+
+        a, b = np.concatenate(cand_a)[order], np.concatenate(cand_b)[order]
+        inside = shapely.covers(region_polygon(region), shapely.linestrings(np.stack([uv[a], uv[b]], axis=1)))
+        if inside.any():  # the most stretched pair that is a pair of neighbours on the part
+            return float(h * r[order][np.argmax(inside)])
+    return float(h * r[order[0]])
+
+
 def _honour_surface_spacing(
     flat: Flattening,
     spacing: float,
     planner: Callable[[float], PlanarPath],
     *,
-    max_step_factor: float = SQRT2,
-    first_factor: float | None = None,
+    region: Region | None = None,
     start_quantile: float = 0.99,
     max_iter: int = 6,
 ) -> tuple[PlanarPath, SurfacePath, float]:
-    """Plan and map so that no 3D grid step exceeds ``max_step_factor x spacing``.
+    """Plan and map so that neighbouring dwell points are at most ``spacing`` apart on the part.
 
-    The paper's "step reduction factor" found on the actual path. Starts from
-    the planar spacing given by an area-weighted quantile of the map's stretch
-    (:func:`polishpath.mapping.planar_spacing_for_surface`), maps the planned
-    path and measures its largest 3D grid step, then rescales the planar spacing
-    by ``limit / largest step`` (up or down: a pattern that makes few diagonal
-    steps may allow a larger spacing) and re-plans, keeping the largest spacing
-    whose path fits. It stops when a fitting path's largest step is within 2 %
-    of the limit, or after ``max_iter`` plans; if none fitted it falls back to
-    the strict bound (quantile 1), which holds for every 8-neighbour step inside
-    the mesh.
+    The paper's "step reduction factor" found on the actual dwell set, with one
+    meaning of spacing for every pattern (:func:`neighbour_spacing_max`): no
+    axial neighbours and no neighbouring passes more than ``spacing`` apart on
+    the part, no diagonal neighbours more than ``sqrt(2) x spacing``. Starts
+    from the planar spacing given by an area-weighted quantile of the map's
+    stretch (:func:`polishpath.mapping.planar_spacing_for_surface`), maps the
+    planned set, measures its largest neighbour spacing on the part, rescales
+    the planar spacing by ``spacing / largest`` (up or down) and re-plans,
+    keeping the largest planar spacing whose set fits. It stops when a fitting
+    set's largest neighbour spacing is within 2 % of ``spacing``, or after
+    ``max_iter`` plans; if none fitted it falls back to the strict bound
+    (quantile 1: the map stretches no planar segment inside the mesh by more).
 
     Parameters
     ----------
@@ -221,11 +333,8 @@ def _honour_surface_spacing(
         Wanted spacing on the part, mm.
     planner : callable
         ``planner(planar_spacing_mm) -> PlanarPath``.
-    max_step_factor : float
-        Allowed largest 3D step / spacing.
-    first_factor : float or None
-        The step factor of the first try's planar spacing (None: ``max_step_factor``; a blue-noise set
-        starts where the grid does, sqrt(2)).
+    region : Region, optional
+        The planning region (see :func:`neighbour_spacing_max`).
     start_quantile : float
         Quantile of the stretch used for the first try.
     max_iter : int
@@ -236,14 +345,16 @@ def _honour_surface_spacing(
     planar : PlanarPath
     mapped : SurfacePath
         ``stats`` also hold ``planar_spacing``, ``step_reduction_factor``
-        (planar / surface spacing), ``replans`` (plans made) and ``grid_step_max`` (mm).
+        (planar / surface spacing), ``replans`` (plans made), ``neighbour_spacing_max``
+        (mm, at most ``spacing``) and ``grid_step_max`` (mm).
     h : float
         The planar spacing used, mm.
     """
     from ..mapping import map_to_surface, planar_spacing_for_surface
 
-    limit = max_step_factor * spacing
-    h = planar_spacing_for_surface(flat, spacing, first_factor or max_step_factor, quantile=start_quantile)
+    # the map stretches no planar segment by more than sigma: h = spacing / sigma keeps every neighbour
+    # within the spacing (sqrt(2) x spacing over the diagonal sqrt(2) h is that same bound)
+    h = planar_spacing_for_surface(flat, spacing, SQRT2, quantile=start_quantile)
     best = None
     tries = 0
     for _ in range(max(1, max_iter)):
@@ -251,11 +362,11 @@ def _honour_surface_spacing(
         mapped = map_to_surface(flat, planar, surface_spacing=spacing)
         tries += 1
         progress.update(planar.n_points, None, f"dwell points in plan {tries}")
-        m = _grid_step_max(planar, mapped)
-        fits = m <= limit * (1 + 1e-9)
+        m = neighbour_spacing_max(planar, mapped, region)
+        fits = m <= spacing * (1 + 1e-9)
         if fits and (best is None or h > best[2]):
-            best = (planar, mapped, h)
-        ratio = limit / m if m > 0 else 2.0
+            best = (planar, mapped, h, m)
+        ratio = spacing / m if m > 0 else 2.0
         if fits and ratio < 1.02:
             break
         h_next = h * min(ratio, 2.0) * 0.999
@@ -263,12 +374,13 @@ def _honour_surface_spacing(
             break
         h = h_next
     if best is None:
-        h = planar_spacing_for_surface(flat, spacing, first_factor or max_step_factor, quantile=1.0)
+        h = planar_spacing_for_surface(flat, spacing, SQRT2, quantile=1.0)
         planar = planner(h)
-        best = (planar, map_to_surface(flat, planar, surface_spacing=spacing), h)
+        mapped = map_to_surface(flat, planar, surface_spacing=spacing)
+        best = (planar, mapped, h, neighbour_spacing_max(planar, mapped, region))
         tries += 1
-    planar, mapped, h = best
+    planar, mapped, h, m = best
     figures = {"planar_spacing": float(h), "step_reduction_factor": float(h / spacing), "replans": tries,
-               "grid_step_max": _grid_step_max(planar, mapped)}
+               "neighbour_spacing_max": float(m), "grid_step_max": _grid_step_max(planar, mapped)}
     mapped = replace(mapped, stats={**mapped.stats, **figures})  # a new SurfacePath: frozen objects stay as made
     return planar, mapped, float(h)
