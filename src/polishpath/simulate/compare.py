@@ -127,7 +127,9 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
                   seed: int = 0, band=PAPER_BAND_PER_MM, spacing_mm: float | None = None,
                   eval_bounds=None, eval_inset_mm: float | None = None, out_dir=None,
                   keep_results: bool = False, time_model: str = "segments", machine: dict | None = None,
-                  removal_dx_mm: float | None = None, depth_nm: float | None = None) -> dict[str, Any]:
+                  removal_dx_mm: float | None = None, depth_nm: float | None = None,
+                  path_spacings_mm: dict[str, float] | None = None,
+                  path_lattices: dict[str, bool] | None = None) -> dict[str, Any]:
     """Run the same removal on several paths (one seed) and judge each residual by the fair metrics.
 
     Parameters
@@ -145,8 +147,8 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
     band : (float, float)
         1/mm (default 1-100 = 10^3-10^5 1/m).
     spacing_mm : float, optional
-        Path spacing, mm: the lattice frequencies of :func:`~polishpath.simulate.fair.lattice_peak_db`
-        and the names of spectral peaks (default 0.5 for the lattice).
+        Path spacing, mm, of every path not in ``path_spacings_mm``: its lattice frequencies for
+        :func:`~polishpath.simulate.fair.lattice_peak_db` and the names of spectral peaks (default 0.5).
     eval_bounds : (xmin, ymin, xmax, ymax), optional
         Where to measure, mm. Default: the patch inset by ``eval_inset_mm``.
     eval_inset_mm : float, optional
@@ -165,6 +167,12 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
         Make every path remove exactly this mean depth inside the evaluation
         window (nm): its removal is scaled (exact: the model is linear in the
         rate) and the smoothing applied for this depth. None: as simulated.
+    path_spacings_mm : dict of name -> float, optional
+        Each path's own spacing in the workpiece's plane, mm: its lattice peak is
+        looked for at its own frequencies (:func:`~polishpath.simulate.fair.path_frequencies`).
+    path_lattices : dict of name -> bool, optional
+        False for a path whose dwell points have no lattice: it is read at the
+        nominal frequencies of its spacing (default True).
 
     Returns
     -------
@@ -172,11 +180,13 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
         ``rows`` (per path: ``residual_band_rms_nm``, ``lattice_peak_db``,
         ``pvn``, ``residual_rms_nm``, ``residual_pv_nm`` (the fair metrics of
         the residual), ``before`` / ``after`` band averages, ``suppression_ratio``
-        (None from a flat start), band RMS, peaks, times), ``params``, ``psds``
+        (None from a flat start), band RMS, peaks, times, ``lattice_spacing_mm``,
+        ``lattice_frequencies_per_mm`` and ``lattice_basis``: where its lattice
+        peak was read), ``params``, ``psds``
         (name -> PSD of the residual, plus ``"before"``), ``residuals`` (name ->
         downsampled residual map for the figures), ``table``.
     """
-    from .fair import detrend_residual, fair_metrics
+    from .fair import detrend_residual, fair_metrics, path_frequencies
 
     if not paths:
         raise ParameterError("no path to compare.", "Give at least one (path_xy, dwell_s) pair.")
@@ -203,15 +213,20 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
                     else res.before_nm)
             res = replace(res, removal_nm=removal, after_nm=(base - removal).astype(np.float32),
                           stats={**res.stats, "depth_scale": scale})
-        ev = evaluate_result(res, eval_bounds, band=band, spacing_mm=spacing_mm, psd_before=psds.get("before"))
+        h = float((path_spacings_mm or {}).get(name) or spacing_mm or 0.5)  # this path's own spacing
+        has_lattice = bool((path_lattices or {}).get(name, True))
+        freqs = path_frequencies(h, lattice=has_lattice)
+        ev = evaluate_result(res, eval_bounds, band=band, spacing_mm=h, psd_before=psds.get("before"))
         after = _crop(res.after_nm, res.origin_mm, dx, eval_bounds).astype(np.float64)
         depth = depth_nm if depth_nm is not None else float(
             _crop(res.removal_nm, res.origin_mm, dx, eval_bounds).astype(np.float64).mean())
-        fm = fair_metrics(after, dx, spacing_mm or 0.5, depth, band=band)
+        fm = fair_metrics(after, dx, h, depth, band=band, frequencies=freqs)
         dt = time.perf_counter() - t0
         psds.setdefault("before", ev["psd_before"])
         psds[name] = ev["psd_after"]
         row = {"name": name, "residual_band_rms_nm": fm.residual_band_rms_nm, "lattice_peak_db": fm.lattice_peak_db,
+               "lattice_spacing_mm": h, "lattice_frequencies_per_mm": [float(f) for f in freqs],
+               "lattice_basis": "lattice" if has_lattice else "nominal spacing (no lattice)",
                "pvn": fm.pvn, "residual_rms_nm": fm.residual_rms_nm, "residual_pv_nm": fm.residual_pv_nm,
                "before": ev["before"], "after": ev["after"],
                "suppression_ratio": None if flat_start else ev["suppression_ratio"],
@@ -387,7 +402,9 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         ``rows`` (per path: each of ``residual_band_rms_nm``, ``lattice_peak_db``,
         ``pvn``, ``suppression_ratio`` as the mean and ``<key>_min`` / ``<key>_max``
         over the seeds, ``per_seed``, ``random``, ``pattern``,
-        ``planar_spacing_mm``, timing figures), ``rankings`` (per figure, ties
+        ``planar_spacing_mm``, ``lattice_frequencies_per_mm`` (where its lattice peak
+        was read: its own planar spacing's, see :func:`~polishpath.simulate.fair.path_frequencies`),
+        timing figures), ``rankings`` (per figure, ties
         where ranges overlap), ``params``, ``psds`` (mean over seeds),
         ``residuals`` (first seed's maps), ``table``.
     """
@@ -409,6 +426,7 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         patch_bounds = (*allp.min(axis=0), *allp.max(axis=0))
     xmin, ymin, xmax, ymax = map(float, patch_bounds)
     spacings = {name: float(p.spacing) for name, p in first.items()}
+    lattices = {name: _has_lattice(p) for name, p in first.items()}
     h0 = next(iter(spacings.values()))
     base_tif = tif or default_tif()
     t0_point, tif_scaled, tif_scale = _dwell_s_per_point(base_tif, h0, removal_depth_nm)
@@ -452,7 +470,8 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                 paths[name] = (xy, times, pieces, tm_all)
         o = compare_paths(paths, wp, tif_used, noise=noise_used, smoothing=smooth_used, seed=s_i, band=band,
                           spacing_mm=h0, eval_bounds=eval_bounds, time_model=tm_all, machine=legacy_machine,
-                          removal_dx_mm=removal_dx_mm, depth_nm=removal_depth_nm) if paths else \
+                          removal_dx_mm=removal_dx_mm, depth_nm=removal_depth_nm, path_spacings_mm=spacings,
+                          path_lattices=lattices) if paths else \
             {"rows": [], "psds": {}}
         for r in o["rows"]:  # total_time_s: the dwell times asked; the machine's own time beside it
             r["machine_time_s"] = r["total_time_s"] if r["time_model"] == "moves" else None
@@ -487,6 +506,9 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                    "seed": seed, "n_seeds": seeds, "machine_profile": None if profile is None else profile.name,
                    "machine": profile.to_dict() if profile is not None else legacy_machine,
                    "mechanisms": mech.to_dict(), "dwell": dwell, "patterns": list(planned), "spacing_mm": h0,
+                   "lattice_peak_at": "each path's own frequencies: 1/(2h), n/h (n = 1..3) of its planar spacing h "
+                                      "(the comparison simulates in the plane the paths were planned in); a path "
+                                      "without a lattice at 1/(2h), 1/h, sqrt(2)/h, 2/h of its nominal spacing",
                    "dwell_s_per_point": t0_point, "removal_depth_nm": removal_depth_nm, "plans": plan_info or {},
                    "tif_rate_scale": tif_scale, "region_bounds_mm": [xmin, ymin, xmax, ymax],
                    "random_patterns": [r["name"] for r in rows if r["random"]],
@@ -499,6 +521,12 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
     if out_dir is not None:
         write_outputs(out, out_dir)
     return out
+
+
+def _has_lattice(p: PlanarPath) -> bool:
+    """Whether a planned path has a lattice whose frequencies it prints (``PlanarPath.lattice``: the grid
+    patterns', and the spiral's, whose pitch is the grid spacing) or none (a blue-noise set)."""
+    return p.lattice is not None
 
 
 def _dwell_times(xy: np.ndarray, pieces: np.ndarray, t_point: float, dwell: str) -> np.ndarray:

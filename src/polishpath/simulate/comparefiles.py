@@ -6,8 +6,9 @@
 * ``results.json``: every row, the rankings, all parameters and the PSDs;
 * ``residuals.png``: the residual maps of all paths side by side (first seed,
   mean / tilt / power removed, one colour scale);
-* ``psd.png``: the profile PSDs (mean over seeds) with the path's lattice
-  frequencies marked; ``residual_<name>.png``: each residual map on its own.
+* ``psd.png``: the profile PSDs (mean over seeds) with each path's own lattice
+  frequencies marked (those its lattice peak was read at); ``residual_<name>.png``:
+  each residual map on its own.
 """
 
 from __future__ import annotations
@@ -55,9 +56,9 @@ def format_table(rows: list[dict[str, Any]], units: str = "nm^2 mm", *, params: 
              + (f"; mechanisms off: {', '.join(p['mechanisms']['off'])}" if (p.get("mechanisms") or {}).get("off")
                 else ""),
              "figures: mean [min, max] over the seeds of the residual (after polishing, mean / tilt / power "
-             "removed): band RMS over the band, the largest PSD peak at the path's lattice frequencies over the "
-             "local background, PVn = PV / depth; the paper-style suppression (before/after band-average PSD) "
-             "is a separate column"]
+             "removed): band RMS over the band, the largest PSD peak at the path's own lattice frequencies over "
+             "the local background (each path at its own, listed below), PVn = PV / depth; the paper-style "
+             "suppression (before/after band-average PSD) is a separate column"]
     w = [14] + [max(len(c[1]), 22) + 2 for c in _COLUMNS] + [15]
     head = f"{'path':<{w[0]}}" + "".join(f"{c[1]:>{wi}}" for c, wi in zip(_COLUMNS, w[1:])) + f"{'paper suppr.':>{w[-1]}}"
     lines += [head, "-" * len(head)]
@@ -66,13 +67,21 @@ def format_table(rows: list[dict[str, Any]], units: str = "nm^2 mm", *, params: 
         lines.append(f"{r['name']:<{w[0]}}" + "".join(f"{_cell(r, *c[0:1], c[2], c[3]):>{wi}}"
                                                      for c, wi in zip(_COLUMNS, w[1:]))
                      + f"{(f'{100 * ps:.2f} %' if ps is not None else '-'):>{w[-1]}}")
+    for r in rows:
+        if r.get("lattice_frequencies_per_mm"):
+            fs = ", ".join(f"{f:.3g}" for f in r["lattice_frequencies_per_mm"])
+            basis = r.get("lattice_basis", "lattice")
+            lines.append(f"lattice peak of {r['name']} read at {fs} 1/mm "
+                         + (f"(its lattice, planar spacing h = {r['lattice_spacing_mm']:.4g} mm)" if basis == "lattice"
+                            else f"({basis}, h = {r['lattice_spacing_mm']:.4g} mm)"))
     if mode == "interference-free":
         lines.append("paper-style suppression: undefined in interference-free mode (flat start: nothing to suppress)")
     else:
         lines.append(f"paper-style suppression: 1 - after/before of the band-average profile PSD ({units}); it mixes "
                      "the start's roughness the pad smooths, the process noise and the path's own marks")
     for k, rk in (rankings or {}).items():
-        lines.append(f"ranking by {k} (best first; [a ~ b]: ranges overlap, not distinguishable): {rk['text']}")
+        own = " (each path at its own lattice frequencies)" if k == "lattice_peak_db" else ""
+        lines.append(f"ranking by {k}{own} (best first; [a ~ b]: ranges overlap, not distinguishable): {rk['text']}")
     return "\n".join(lines) + "\n"
 
 
@@ -88,7 +97,9 @@ def write_outputs(out: dict[str, Any], out_dir) -> None:
     prm = out["params"]
     plot_psds(out["psds"], d / "psd.png", band=tuple(prm["band_per_mm"]),
               spacings={r["name"]: r.get("planar_spacing_mm") or prm.get("spacing_mm") for r in out["rows"]},
-              title="Simulated profile PSD of the residual (mean over seeds), lattice frequencies marked")
+              frequencies={r["name"]: r["lattice_frequencies_per_mm"] for r in out["rows"]
+                           if r.get("lattice_frequencies_per_mm")},
+              title="Simulated profile PSD of the residual (mean over seeds), each path's lattice frequencies marked")
     res = out.get("residuals") or {}
     if res:
         plot_residuals(res, d / "residuals.png")
@@ -105,7 +116,8 @@ def _json_default(o):
 
 
 def plot_psds(psds: dict[str, PSD], file, *, band=PAPER_BAND_PER_MM, title: str = "Simulated profile PSD",
-              spacings: dict[str, float | None] | None = None) -> Path:
+              spacings: dict[str, float | None] | None = None,
+              frequencies: dict[str, Any] | None = None) -> Path:
     """Log-log PSD plot, one curve per path, the band shaded, units on the axes.
 
     Parameters
@@ -118,6 +130,9 @@ def plot_psds(psds: dict[str, PSD], file, *, band=PAPER_BAND_PER_MM, title: str 
     spacings : dict of name -> spacing (mm), optional
         Mark each path's lattice frequencies (1/spacing and harmonics, 1/(2 spacing))
         on its curve.
+    frequencies : dict of name -> (K,) 1/mm, optional
+        Mark these frequencies on a path's curve instead (a comparison's
+        ``lattice_frequencies_per_mm``: where its lattice peak was read).
     """
     import matplotlib
 
@@ -129,15 +144,18 @@ def plot_psds(psds: dict[str, PSD], file, *, band=PAPER_BAND_PER_MM, title: str 
         (line,) = ax.loglog(p.freq, p.psd, lw=1.0 if name != "before" else 1.6,
                             color="k" if name == "before" else None, ls="--" if name == "before" else "-", label=name)
         h = (spacings or {}).get(name)
-        if h:
+        f = (frequencies or {}).get(name)
+        if f is None and h:
             from .fair import lattice_frequencies
 
-            f = np.asarray(lattice_frequencies(h), dtype=np.float64)
+            f = lattice_frequencies(h)
+        if f is not None:
+            f = np.asarray(f, dtype=np.float64)
             f = f[(f >= p.freq[1]) & (f <= p.freq[-1])] if len(p.freq) > 1 else f[:0]
             ax.plot(f, np.interp(f, p.freq, p.psd), ls="none", marker="v", ms=5, color=line.get_color())
     ax.axvspan(band[0], band[1], color="0.9", zorder=0, label=f"band {band[0]:g}-{band[1]:g} 1/mm")
-    if spacings:
-        ax.plot([], [], ls="none", marker="v", color="0.3", label="lattice frequencies (1/s, n/s, 1/2s)")
+    if spacings or frequencies:
+        ax.plot([], [], ls="none", marker="v", color="0.3", label="each path's lattice frequencies")
     units = next(iter(psds.values())).units
     ax.set_xlabel("spatial frequency f (1/mm)")
     ax.set_ylabel(f"PSD ({units})")

@@ -36,12 +36,12 @@ import numpy as np
 from .._version import __version__
 from ..errors import ParameterError
 from ..psd.core import PAPER_BAND_PER_MM
+from .lattice import _BLOCK_ROWS, _check_freqs, _lattice_db, lattice_frequencies, nominal_frequencies, path_frequencies
 
 __all__ = ["FairMetrics", "PAPER_BAND_PER_MM", "band_rms_nm", "detrend_residual", "fair_metrics",
-           "lattice_frequencies", "lattice_peak_db", "pvn", "ripple_amplitude", "taper_width_mm"]
+           "lattice_frequencies", "lattice_peak_db", "nominal_frequencies", "path_frequencies", "pvn",
+           "ripple_amplitude", "taper_width_mm", "time_density_peak_db"]
 
-#: rows per block when a map is processed in pieces (bounds the temporary memory)
-_BLOCK_ROWS = 256
 
 
 # --- inputs -------------------------------------------------------------------------------
@@ -289,85 +289,8 @@ def _band_rms(z: np.ndarray, w: np.ndarray, dx_mm: float, lo: float, hi: float) 
 # --- lattice peaks ------------------------------------------------------------------------
 
 
-def lattice_frequencies(spacing_mm: float, n_harmonics: int = 3) -> np.ndarray:
-    """The path's own frequencies in a profile, 1/mm: ``1/(2 s)`` and ``n/s`` for ``n = 1..n_harmonics``.
-
-    ``1/(2 s)`` is the period of a bidirectional raster (every other pass runs
-    the same way); ``n/s`` are the pass spacing and its harmonics (a profile
-    across the lattice vectors (1/s, 0), (0, 1/s), (1/s, +-1/s) of the 2D PSD
-    sees them at these frequencies).
-
-    Parameters
-    ----------
-    spacing_mm : float
-        Path spacing s, mm.
-    n_harmonics : int
-        Number of harmonics of ``1/s``.
-
-    Returns
-    -------
-    (n_harmonics + 1,) float64
-        Increasing, 1/mm.
-    """
-    if not (np.isfinite(spacing_mm) and spacing_mm > 0):
-        raise ParameterError(f"spacing_mm must be a positive path spacing in mm, got {spacing_mm}.")
-    if int(n_harmonics) != n_harmonics or n_harmonics < 1:
-        raise ParameterError(f"n_harmonics must be a positive integer, got {n_harmonics}.")
-    return np.concatenate([[0.5 / spacing_mm], np.arange(1, int(n_harmonics) + 1) / spacing_mm])
-
-
-def _profile_psds(z: np.ndarray, w: np.ndarray, dx_mm: float, pad: int = 2):
-    """One-sided profile PSDs (nm^2 mm) of the rows and of the columns of the windowed map.
-
-    ``P(f) = 2 dx sum_profiles |DFT(z w)|^2 / sum w^2`` on a grid zero-padded
-    ``pad`` times (the spectrum interpolated, so a peak between two bins of the
-    profile length loses little), so ``sum P df`` is the windowed variance.
-
-    Returns
-    -------
-    list of (freq (K,) 1/mm, psd (K,) nm^2 mm, df_profile 1/mm)
-    """
-    import scipy.fft as sfft
-
-    out = []
-    norm = float(np.sum(w * w))
-    for a, b in ((z, w), (z.T, w.T)):
-        n = a.shape[1]
-        m = sfft.next_fast_len(pad * n, real=True)
-        acc = np.zeros(m // 2 + 1)
-        for r0 in range(0, a.shape[0], _BLOCK_ROWS):
-            r1 = r0 + _BLOCK_ROWS
-            acc += np.sum(np.abs(sfft.rfft(a[r0:r1] * b[r0:r1], n=m, axis=1, workers=2)) ** 2, axis=0)
-        p = acc * dx_mm / norm  # |DFT|^2 dx / sum w^2 (two-sided) ...
-        p[1:] *= 2.0  # ... folded to one side
-        if m % 2 == 0:
-            p[-1] /= 2.0
-        out.append((sfft.rfftfreq(m, d=dx_mm), p, 1.0 / (n * dx_mm)))
-    return out
-
-
-def _peak_db(freq, psd, df_profile, f_target, all_targets, min_background_bins: int = 6):
-    """10 log10(max PSD near ``f_target`` / median PSD around it, peak zones excluded); None if not evaluable."""
-    tol = max(2.0 * df_profile, 0.02 * f_target)  # the window's main lobe: +-2 bins
-    near = np.abs(freq - f_target) <= tol
-    if not near.any():
-        return None
-    half = max(0.25 * f_target, 8 * df_profile)
-    around = (np.abs(freq - f_target) <= half) & (freq > 0)
-    for g in all_targets:  # keep every lattice peak (and the DC end) out of the background
-        around &= np.abs(freq - g) > max(2.0 * df_profile, 0.02 * g) + 2 * df_profile
-    around &= freq > 2 * df_profile
-    if around.sum() < min_background_bins:
-        return None
-    bg = float(np.median(psd[around]))
-    pk = float(psd[near].max())
-    if bg <= 0:
-        return None if pk <= 0 else float("inf")
-    return 10.0 * np.log10(max(pk, np.finfo(float).tiny) / bg)
-
-
 def lattice_peak_db(map_nm, dx_mm: float, spacing_mm: float, *, band=PAPER_BAND_PER_MM, mask=None,
-                    n_harmonics: int = 3) -> float:
+                    n_harmonics: int = 3, frequencies=None) -> float:
     """The largest PSD peak at the path's own frequencies over the local background, dB.
 
     For each frequency of :func:`lattice_frequencies` inside ``band`` (and
@@ -400,6 +323,9 @@ def lattice_peak_db(map_nm, dx_mm: float, spacing_mm: float, *, band=PAPER_BAND_
         True where the map is evaluated.
     n_harmonics : int
         Harmonics of ``1/spacing`` looked at.
+    frequencies : (K,) array_like, optional
+        Look at these frequencies (1/mm, e.g. :func:`path_frequencies`) instead
+        of :func:`lattice_frequencies` of ``spacing_mm``.
 
     Returns
     -------
@@ -413,28 +339,8 @@ def lattice_peak_db(map_nm, dx_mm: float, spacing_mm: float, *, band=PAPER_BAND_
         resolved background around it (the map is too small or too coarse).
     """
     z, w, _, (lo, hi) = _prepared(map_nm, dx_mm, band, mask)
-    return _lattice_db(z, w, dx_mm, spacing_mm, lo, hi, n_harmonics)
-
-
-def _lattice_db(z: np.ndarray, w: np.ndarray, dx_mm: float, spacing_mm: float, lo: float, hi: float,
-                n_harmonics: int = 3) -> float:
-    """:func:`lattice_peak_db` of a prepared map and its window."""
-    targets = lattice_frequencies(spacing_mm, n_harmonics)
-    nyq = 0.5 / dx_mm
-    use = [f for f in targets if lo <= f <= hi and f <= 0.9 * nyq]
-    best = None
-    for freq, psd, dfp in _profile_psds(z, w, dx_mm):
-        for f in use:
-            v = _peak_db(freq, psd, dfp, f, targets)
-            if v is not None and (best is None or v > best):
-                best = v
-    if best is None:
-        raise ParameterError(
-            f"no lattice frequency of spacing {spacing_mm} mm ({', '.join(f'{f:.4g}' for f in targets)} 1/mm) can "
-            f"be read in the band {lo:g}-{hi:g} 1/mm of a {z.shape[1] * dx_mm:.3g} x {z.shape[0] * dx_mm:.3g} mm "
-            f"map at {dx_mm} mm pitch.",
-            "Evaluate a larger area (a few spacings at least), a finer pitch, or a band holding 1/spacing.")
-    return float(best)
+    targets = lattice_frequencies(spacing_mm, n_harmonics) if frequencies is None else _check_freqs(frequencies)
+    return _lattice_db(z, w, dx_mm, spacing_mm, lo, hi, targets)
 
 
 # --- PV, ripple ---------------------------------------------------------------------------
@@ -509,6 +415,74 @@ def ripple_amplitude(map_nm, dx_mm: float, wavelength_mm: float, axis: int = 0) 
     return float(np.hypot(2.0 / m * np.dot(p, np.cos(ph)), 2.0 / m * np.dot(p, np.sin(ph))))
 
 
+# --- time density ---------------------------------------------------------------------------
+
+
+def time_density_peak_db(xy_mm, time_s, spacing_mm: float, bounds, *, dx_mm: float | None = None,
+                         frequencies=None) -> float:
+    """The peak the tool's time density shows at a dwell lattice's frequencies, dB (issue 26, Why 3).
+
+    The machine samples come at a constant period, so where they fall is where
+    the tool spends its time: a dwell set on a lattice, with a feed that changes
+    at every dwell point, prints that lattice into the time density before any
+    tool footprint smooths it. Here the samples (in the path's plane) are
+    binned into a density map over ``bounds``, each weighted by its time; the
+    map's mean is removed and it is tapered by a 2D Hann window; the profile
+    PSDs of its rows and of its columns are read at ``frequencies`` (default
+    :func:`nominal_frequencies` of ``spacing_mm``: ``1/(2h)``, ``1/h``,
+    ``sqrt(2)/h``, ``2/h``) exactly like :func:`lattice_peak_db` (largest value
+    near each over the median around it, other targets left out). 0 dB = no
+    peak. It needs no removal model, so it judges a path's dwell set and timing
+    alone.
+
+    Parameters
+    ----------
+    xy_mm : (M, 2) array_like
+        Sample positions in the path's plane, mm.
+    time_s : (M,) array_like
+        Time at each sample, s (constant-period samples: the period).
+    spacing_mm : float
+        The path's spacing ``h`` in that plane, mm.
+    bounds : (xmin, ymin, xmax, ymax)
+        The window, mm (a centre window well inside the path's region).
+    dx_mm : float, optional
+        Bin size, mm (default ``h / 8``: 2/h is read at a quarter of Nyquist).
+    frequencies : (K,) array_like, optional
+        Frequencies to read, 1/mm.
+
+    Returns
+    -------
+    float
+        dB.
+
+    Raises
+    ------
+    ParameterError
+        Shapes that do not match, a window with no sample or fewer than 16 bins a
+        side, a bad spacing or bin size.
+    """
+    xy = np.asarray(xy_mm, dtype=np.float64)
+    t = np.asarray(time_s, dtype=np.float64).ravel()
+    if xy.ndim != 2 or xy.shape[1] != 2 or len(t) != len(xy):
+        raise ParameterError(f"xy_mm must be (M, 2) and time_s (M,), got {xy.shape} and {t.shape}.",
+                             "Pass the machine samples' positions and their times.")
+    h = float(spacing_mm)
+    targets = nominal_frequencies(h) if frequencies is None else _check_freqs(frequencies)
+    dx = _check_dx(h / 8.0 if dx_mm is None else dx_mm)
+    x0, y0, x1, y1 = (float(b) for b in bounds)
+    nx, ny = int(np.floor((x1 - x0) / dx)), int(np.floor((y1 - y0) / dx))
+    if min(nx, ny) < 16:
+        raise ParameterError(f"the window {bounds} holds {nx} x {ny} bins of {dx:g} mm; at least 16 a side are needed.",
+                             "Use a larger window (a few spacings a side at least) or a smaller dx_mm.")
+    dens, _, _ = np.histogram2d(xy[:, 1], xy[:, 0], bins=(ny, nx), range=((y0, y0 + ny * dx), (x0, x0 + nx * dx)),
+                                weights=t)
+    if not dens.any():
+        raise ParameterError(f"no sample with time lies in the window {bounds}.", "Give a window the path runs through.")
+    w = np.outer(np.hanning(ny + 2)[1:-1], np.hanning(nx + 2)[1:-1])
+    z = dens - float(np.sum(dens * w * w) / np.sum(w * w))  # the window-weighted mean carries no peak
+    return _lattice_db(z, w, dx, h, 0.0, 0.45 / dx, targets)
+
+
 # --- all figures ----------------------------------------------------------------------------
 
 
@@ -548,7 +522,7 @@ class FairMetrics:
 
 
 def fair_metrics(residual_nm, dx_mm: float, spacing_mm: float, depth_nm: float, *, band=PAPER_BAND_PER_MM,
-                 mask=None) -> FairMetrics:
+                 mask=None, frequencies=None) -> FairMetrics:
     """Detrend a residual (start - removal) and compute its fair figures.
 
     Parameters
@@ -565,25 +539,30 @@ def fair_metrics(residual_nm, dx_mm: float, spacing_mm: float, depth_nm: float, 
         1/mm (default the paper's 1-100 1/mm).
     mask : (Ny, Nx) bool, optional
         True where the residual is evaluated (e.g. away from the patch edges).
+    frequencies : (K,) array_like, optional
+        The lattice frequencies to read, 1/mm (default :func:`lattice_frequencies`
+        of ``spacing_mm``; a comparison passes each path's :func:`path_frequencies`).
 
     Returns
     -------
     FairMetrics
+        ``params["lattice_frequencies_per_mm"]`` holds the frequencies read.
     """
     r = detrend_residual(residual_nm, dx_mm, mask)
     ok = np.isfinite(r)
     m = ok if mask is not None or not ok.all() else None
     v = r[ok]
     lo, hi = _check_band(band)
+    targets = lattice_frequencies(spacing_mm) if frequencies is None else _check_freqs(frequencies)
     params = {"band_per_mm": [lo, hi], "dx_mm": float(dx_mm), "spacing_mm": float(spacing_mm),
               "depth_nm": float(depth_nm), "n_valid_pixels": int(ok.sum()), "taper_mm": taper_width_mm(band),
               "detrend": "mean+tilt+power (ISO 10110-8), least squares over the valid pixels",
               "band_rms": "2D PSD, |f| in band, window = mask with raised-cosine edge taper",
-              "lattice_peak": "profile PSDs of rows and columns, max over 1/(2s), n/s (n=1..3) "
+              "lattice_peak": "profile PSDs of rows and columns, max over the lattice frequencies "
                               "of peak / local median, dB",
-              "lattice_frequencies_per_mm": lattice_frequencies(spacing_mm).tolist(), "version": __version__}
+              "lattice_frequencies_per_mm": targets.tolist(), "version": __version__}
     z, w, _, _ = _prepared(r, dx_mm, band, m)  # one window for both spectra
     return FairMetrics(residual_band_rms_nm=_band_rms(z, w, float(dx_mm), lo, hi),
-                       lattice_peak_db=_lattice_db(z, w, float(dx_mm), spacing_mm, lo, hi),
+                       lattice_peak_db=_lattice_db(z, w, float(dx_mm), spacing_mm, lo, hi, targets),
                        pvn=pvn(r, depth_nm, m), residual_rms_nm=float(np.sqrt(np.mean(v * v))),
                        residual_pv_nm=float(v.max() - v.min()), params=params)
