@@ -1,5 +1,19 @@
 """Benchmark of the planner: points per second on a disc, a five-pointed star and an annulus.
 
+``--sets``: the two dwell-point sets side by side in the same run (issue 26): the
+grid walk and the blue-noise walk (no lattice) on one disc at 1e5, 1e6 and 1e7
+points (``--set-sizes``), each case in its own process so that its peak RSS is
+its own: seconds (points / grid, walk), points per second, pieces, steps (mean
+and largest, in spacings; the step histogram), the share of the busiest and the
+emptiest of 16 direction sectors (x 16: 1 is an even share), and, at
+``--density-size`` points, the time-density peaks: the machine samples at a
+constant period (4 ms, 600 mm/min) on the flat disc, binned at h/8 in a centre
+window of 40 h, the rows' and columns' PSD (Hann) at 1/(2h), 1/h, sqrt(2)/h and
+2/h in dB over the median of +-35 % around each. The target (issue 26): 10^6
+blue-noise points planned in at most 2x the grid walk's time; 10^7 completes.
+
+    PYTHONPATH=src python benchmarks/bench_plan.py --sets [--set-sizes 1e5,1e6,1e7] [--density-size 1e5]
+
 Prints, for 1e4, 1e5 and 1e6 dwell points (1e7 with ``--big``): grid time,
 planning time, points per second end to end, pieces, walk fraction, direction
 share range, and (``--metrics``) the seconds of ``path_metrics`` (the job's
@@ -17,7 +31,10 @@ first so the table shows the steady state.
 from __future__ import annotations
 
 import argparse
+import json
 import resource
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -55,14 +72,116 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def time_density_peaks(path, window_h: float = 40.0, pix: int = 8, feed: float = 600.0,
+                       period_ms: float = 4.0) -> dict:
+    """Peaks (dB over the local median) of the machine samples' time density at the lattice frequencies.
+
+    The path is taken as a flat part (z = 0), smoothed at a constant period, its samples binned at
+    ``h / pix`` in a centre window of ``window_h x h``; the rows' and columns' PSD (Hann window) at
+    1/(2h), 1/h, sqrt(2)/h and 2/h over the median of the band within 35 % of each frequency.
+    """
+    from polishpath.smooth import smooth
+    from polishpath.types import Provenance, SurfacePath
+
+    n, h = path.n_points, path.spacing
+    uv = np.asarray(path.uv)
+    w = np.ones(n) if path.cell_area is None else path.cell_area / path.cell_area.mean()
+    sp = SurfacePath(xyz=np.column_stack([uv, np.zeros(n)]), normals=np.tile([0.0, 0.0, 1.0], (n, 1)),
+                     face_ids=np.zeros(n, dtype=np.int64), bary=np.tile([1.0, 0.0, 0.0], (n, 1)),
+                     dwell_weight=w, planar=path, provenance=Provenance("map", "plane z = 0"))
+    s = np.asarray(smooth(sp, feed_mm_min=feed, period_ms=period_ms, deviation_samples=1).samples)[:, :2]
+    c, half, dx = uv.mean(axis=0), window_h * h / 2, h / pix
+    nb = int(round(2 * half / dx))
+    img = np.histogram2d(s[:, 0], s[:, 1], bins=nb, range=[[c[0] - half, c[0] + half], [c[1] - half, c[1] + half]])[0]
+    img -= img.mean()
+    win = np.hanning(nb)
+    psd = (np.abs(np.fft.rfft(img * win[None, :], axis=1)) ** 2).mean(axis=0) \
+        + (np.abs(np.fft.rfft(img * win[:, None], axis=0)) ** 2).mean(axis=1)
+    f = np.fft.rfftfreq(nb, dx)
+    out = {}
+    for name, f0 in (("1/2h", 0.5 / h), ("1/h", 1 / h), ("sqrt2/h", 2**0.5 / h), ("2/h", 2 / h)):
+        near = np.abs(f - f0) <= 0.03 * f0 + 1.5 / (2 * half)
+        band = (np.abs(f - f0) <= 0.35 * f0) & ~near
+        out[name] = float(10 * np.log10(psd[near].max() / np.median(psd[band])))
+    return out
+
+
+def run_case(dwell_points: str, n: int, seed: int, density: bool) -> dict:
+    """One planning case (in its own process): figures as a dict (printed as JSON by ``--case``)."""
+    region = disc_region(float(n))
+    plan(disc_region(400.0), 1.0, seed=0, dwell_points=dwell_points)  # numba compile or cache load
+    t = time.perf_counter()
+    p = plan(region, 1.0, seed=seed, dwell_points=dwell_points)
+    total = time.perf_counter() - t
+    steps = np.concatenate([np.hypot(*np.diff(p.uv[a:b], axis=0).T) for a, b in zip(p.pieces[:-1], p.pieces[1:])])
+    d = np.concatenate([np.diff(p.uv[a:b], axis=0) for a, b in zip(p.pieces[:-1], p.pieces[1:])])
+    sectors = np.bincount(((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // (np.pi / 8)).astype(int) % 16, minlength=16)
+    share = sectors / sectors.sum() * 16
+    out = {"set": dwell_points, "points": p.n_points, "set_s": p.stats["grid_seconds"],
+           "walk_s": total - p.stats["grid_seconds"], "total_s": total, "pieces": len(p.pieces) - 1,
+           "extra_pieces": p.stats["extra_pieces"], "walk_fraction": p.stats["walk_fraction"],
+           "step_mean": float(steps.mean()), "step_max": float(steps.max()),
+           "step_hist": np.histogram(steps, bins=[0, 0.95, 1.05, 1.2, 1.35, 1.45, 1.55, 1.7, 10])[0].tolist(),
+           "sector_min": float(share.min()), "sector_max": float(share.max()), "rss_mb": peak_rss_mb()}
+    if density:
+        out["density_db"] = time_density_peaks(p)
+    return out
+
+
+def compare_sets(sizes: list[int], seed: int, density_size: int) -> None:
+    """The grid walk and the blue-noise walk side by side, each case in its own process."""
+    print(f"{'set':10s} {'points':>9s} {'set s':>7s} {'walk s':>7s} {'total s':>8s} {'pts/s':>9s} {'pieces':>6s} "
+          f"{'extra':>5s} {'walk%':>6s} {'step mean/max':>13s} {'sector min..max':>15s} {'RSS MB':>7s}  "
+          "time density dB (1/2h, 1/h, sqrt2/h, 2/h)")
+    results: dict[tuple[str, int], dict] = {}
+    for n in sizes:
+        for dp in ("grid", "blue-noise"):
+            cmd = [sys.executable, __file__, "--case", dp, str(n), "--seed", str(seed)]
+            if n == density_size:
+                cmd.append("--density")
+            r = subprocess.run(cmd, capture_output=True, text=True)
+            if r.returncode != 0:
+                print(f"{dp:10s} {n:9d} FAILED: {r.stderr.strip().splitlines()[-1] if r.stderr else r.returncode}")
+                continue
+            c = json.loads(r.stdout.strip().splitlines()[-1])
+            results[(dp, n)] = c
+            dens = " ".join(f"{v:5.2f}" for v in c["density_db"].values()) if "density_db" in c else ""
+            print(f"{dp:10s} {c['points']:9d} {c['set_s']:7.2f} {c['walk_s']:7.2f} {c['total_s']:8.2f} "
+                  f"{c['points'] / c['total_s']:9.0f} {c['pieces']:6d} {c['extra_pieces']:5d} "
+                  f"{100 * c['walk_fraction']:6.1f} {c['step_mean']:6.2f}/{c['step_max']:5.2f} "
+                  f"{c['sector_min']:7.2f}..{c['sector_max']:5.2f} {c['rss_mb']:7.0f}  {dens}", flush=True)
+    print("step histogram (spacings: <0.95, -1.05, -1.2, -1.35, -1.45, -1.55, -1.7, more):")
+    for (dp, n), c in results.items():
+        print(f"  {dp:10s} {c['points']:9d} " + " ".join(f"{x / max(sum(c['step_hist']), 1):.3f}" for x in c["step_hist"]))
+    for n in sizes:
+        g, b = results.get(("grid", n)), results.get(("blue-noise", n))
+        if g and b:
+            ratio = b["total_s"] / g["total_s"]
+            verdict = "met" if ratio <= 2.0 else f"missed by {ratio / 2.0:.2f}x"
+            print(f"{n:.0e} points: blue-noise / grid time {ratio:.2f} (target <= 2: {verdict})")
+        elif n >= 10_000_000:
+            print(f"{n:.0e} points: blue-noise {'completed' if b else 'did NOT complete'}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sets", action="store_true", help="grid walk beside the blue-noise walk (issue 26)")
+    ap.add_argument("--set-sizes", type=str, default="1e5,1e6,1e7")
+    ap.add_argument("--density-size", type=float, default=1e5, help="size at which the time density is measured")
+    ap.add_argument("--case", nargs=2, metavar=("SET", "N"), help=argparse.SUPPRESS)
+    ap.add_argument("--density", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--big", action="store_true", help="also 1e7 dwell points")
     ap.add_argument("--metrics", action="store_true", help="also time path_metrics (crossings checked independently)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--sizes", type=str, default="", help="comma separated point counts (overrides)")
     ap.add_argument("--shapes", type=str, default="disc,star,annulus")
     args = ap.parse_args()
+    if args.case:
+        print(json.dumps(run_case(args.case[0], int(float(args.case[1])), args.seed, args.density)))
+        return
+    if args.sets:
+        compare_sets([int(float(x)) for x in args.set_sizes.split(",")], args.seed, int(args.density_size))
+        return
 
     sizes = [10_000, 100_000, 1_000_000] + ([10_000_000] if args.big else [])
     if args.sizes:
