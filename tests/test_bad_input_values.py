@@ -250,3 +250,38 @@ def test_job_file_non_finite_or_out_of_range_refused(tmp_path, table, needle):
     (tmp_path / "job.toml").write_text(table)
     _grid_map(tmp_path / "e.txt", _smooth_map(41, 0.4), 0.4)
     refused(cli("plan", "--config", tmp_path / "job.toml", "-o", tmp_path / "out", "-q"), needle)
+
+
+# --- Zernike error maps, surface specs and dwell-time files ---------------------------------------------------
+
+
+@pytest.mark.parametrize("body, needle", [
+    ("radius_mm = 8.0\ncoefficients = [0, 0, 0, nan, 2.0]\n", "1 Zernike coefficient(s) are NaN or infinite (Z4 first)"),
+    ("radius_mm = inf\ncoefficients = [0, 0, 0, 10]\n", "a finite number > 0), got inf"),
+    ("radius_mm = 8.0\ncoefficients = [0, 0, 0, 10]\npixel_mm = 0\n", "pixel_mm must be a positive number"),
+    ("radius_mm = 8.0\ncoefficients = [0, 0, 0, 10]\npixel_mm = nan\n", "pixel_mm must be a positive number"),
+])
+def test_zernike_error_map_non_finite_or_out_of_range_refused(tmp_path, body, needle):
+    (tmp_path / "z.toml").write_text(f"[zernike]\nunits = \"nm\"\n{body}")
+    refused(cli("plan", PART, *PLAN, "--error-map", tmp_path / "z.toml", "-o", tmp_path / "out"), "z.toml", needle)
+
+
+@pytest.mark.parametrize("line, needle", [
+    ("coeffs = [0.0, 0.0, 0.0, 0.0, nan, 0.0, 0.01]", "coeffs has 1 NaN or infinite value(s) of 7"),
+    ("k = inf", "k has 1 NaN or infinite value(s)"),
+    ("R = nan", "R has 1 NaN or infinite value(s)"),
+])
+def test_surface_spec_with_non_finite_numbers_is_refused(tmp_path, line, needle):
+    key = line.split(" = ")[0]
+    base = {"R": "R = 400.0", "k": "k = 0.0", "coeffs": "coeffs = [0.0, 0.0, 0.0, 0.0, 0.02, 0.0, 0.01]"}
+    base[key] = line
+    (tmp_path / "s.toml").write_text("[surface]\ntype = \"zernike\"\norder = \"fringe\"\nnorm_radius = 30.0\n"
+                                     + "\n".join(base.values()) + "\ntriangles = 2000\n[aperture]\ntype = \"circle\"\n"
+                                     "radius = 30.0\n")
+    refused(cli("info", tmp_path / "s.toml"), needle)
+
+
+def test_dwell_time_file_with_nan_names_the_count_and_the_first(tmp_path):
+    (tmp_path / "t.csv").write_text("dwell_time\n0.5\nnan\n0.5\n-1\n")
+    refused(cli("plan", "hemisphere:R=10,triangles=600", "--spacing", "1.5", "--dwell-times", tmp_path / "t.csv",
+                "-o", tmp_path / "out", "-q"), "t.csv: 2 of 4 dwell times", "the first is time 2: nan")

@@ -21,6 +21,9 @@ import numpy as np
 
 from ..errors import CoverageError, MeasurementFileError, ParameterError, SpecError
 
+#: a Zernike map has at most 2 x this + 1 pixels a side (pixel_mm >= radius / this)
+ZERNIKE_MAX_HALF_PIXELS = 4000
+
 #: heights in nm per unit, for ``--error-units`` and Zernike TOML files
 HEIGHT_UNITS_NM = {"nm": 1.0, "um": 1e3, "µm": 1e3, "mm": 1e6, "m": 1e9, "angstrom": 0.1, "pm": 1e-3}
 
@@ -272,8 +275,9 @@ def zernike_error_map(data: dict[str, Any], *, source: str = "zernike", height_u
     if order not in ("fringe", "standard"):
         raise SpecError(f"{source}: [zernike] ordering must be 'fringe' or 'standard', got {order!r}.")
     radius = t.get("radius_mm")
-    if not (isinstance(radius, (int, float)) and radius > 0):
-        raise SpecError(f"{source}: [zernike] needs radius_mm, the normalisation radius in mm (> 0).")
+    if not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius > 0):
+        raise SpecError(f"{source}: [zernike] needs radius_mm, the normalisation radius in mm (a finite number > 0), "
+                        f"got {radius!r}.")
     unit = height_unit or t.get("units")
     if unit is None:
         warnings.warn(f"{source}: Zernike coefficient unit nm assumed; give units = \"nm\" (or --error-units).",
@@ -289,7 +293,16 @@ def zernike_error_map(data: dict[str, Any], *, source: str = "zernike", height_u
         coeffs = [float(c) for c in t.get("coefficients", [])]
     if not coeffs:
         raise SpecError(f"{source}: [zernike] has no coefficients.", "Give coefficients = [Z1, Z2, ...] or terms.")
-    pix = float(t.get("pixel_mm", radius / 200.0))
+    bad = [j + 1 for j, c in enumerate(coeffs) if not math.isfinite(c)]
+    if bad:
+        raise SpecError(f"{source}: {len(bad)} Zernike coefficient(s) are NaN or infinite (Z{bad[0]} first).",
+                        "Every coefficient must be a finite number (0 for a term not present).")
+    pix = t.get("pixel_mm", radius / 200.0)
+    if not (isinstance(pix, (int, float)) and math.isfinite(pix) and radius / ZERNIKE_MAX_HALF_PIXELS <= pix):
+        raise SpecError(f"{source}: [zernike] pixel_mm must be a positive number of mm of at least radius / "
+                        f"{ZERNIKE_MAX_HALF_PIXELS} ({radius / ZERNIKE_MAX_HALF_PIXELS:.4g} mm), got {pix!r}.",
+                        "Leave it out for radius / 200.")
+    pix = float(pix)
     z = zernike_surface(np.asarray(coeffs) * k, float(radius), order, pix)
     return ErrorMap.centred(z, pix, source=source,
                             params={"format": "zernike", "ordering": order, "radius_mm": float(radius),

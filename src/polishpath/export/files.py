@@ -176,8 +176,13 @@ def read_dwell_times(file, n_points: int | None = None) -> np.ndarray:
     except (ValueError, IndexError) as exc:
         raise ParameterError(f"The dwell-time file holds a value that is not a number ({exc}).",
                              "Write one time in seconds per row.") from exc
-    if not np.all(np.isfinite(t)) or np.any(t <= 0):
-        raise ParameterError("Every dwell time must be a positive number of seconds.")
+    bad = ~(np.isfinite(t) & (t > 0))
+    if bad.any():
+        k = int(np.argmax(bad))
+        name = f"{Path(file).name}: " if isinstance(file, (str, Path)) else ""
+        raise ParameterError(f"{name}{int(bad.sum())} of {len(t)} dwell times are not positive finite numbers of "
+                             f"seconds (the first is time {k + 1}: {float(t[k])!r}).",
+                             "Every dwell point needs a time > 0 s, in path order (see path.csv).")
     if n_points is not None and len(t) != n_points:
         raise ParameterError(f"The dwell-time file has {len(t)} times but the path has {n_points} dwell points.",
                              "Give one time per dwell point, in path order (see path.csv).")

@@ -159,6 +159,21 @@ def _indexed(d: dict[str, Any], prefix: str, start: int, step: int = 1) -> list[
     return out
 
 
+def _refuse_non_finite(kind: str, d: dict[str, Any]) -> None:
+    """Every number of a surface spec finite (``R = inf``, a plane, the one infinity allowed); SpecError names it."""
+    for key, v in d.items():
+        if isinstance(v, (bool, str)) or v is None:
+            continue
+        try:
+            a = np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            continue  # not numbers: the type checks below name it
+        bad = np.isnan(a) if key == "R" else ~np.isfinite(a)
+        if bad.any():
+            raise SpecError(f"{kind} surface: {key} has {int(bad.sum())} NaN or infinite value(s) of {a.size}.",
+                            "Every coefficient must be a finite number (R = inf, a plane, is the one infinity).")
+
+
 def analytic_from_dict(surface: dict[str, Any], aperture: dict[str, Any] | None, source: str):
     """Build and mesh an analytic surface from spec dictionaries.
 
@@ -178,6 +193,7 @@ def analytic_from_dict(surface: dict[str, Any], aperture: dict[str, Any] | None,
     kind = d.pop("type")
     if kind not in ANALYTIC_TYPES:
         raise SpecError(f"unknown analytic surface type {kind!r}.", f"Choose one of: {', '.join(ANALYTIC_TYPES)}.")
+    _refuse_non_finite(kind, d)
     triangles = d.pop("triangles", 5000)
     if isinstance(triangles, bool) or not isinstance(triangles, (int, float)) or float(triangles) != int(triangles):
         raise SpecError(f"{kind} surface: triangles must be a whole number, got {triangles!r}.", "e.g. triangles = 8000.")
