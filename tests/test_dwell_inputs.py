@@ -184,7 +184,9 @@ def test_two_iteration_example_runs(tmp_path):
     spec = importlib.util.spec_from_file_location("run_two_iterations", ex)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    figs = mod.main(tmp_path, surface="xy-polynomial:radius=7,triangles=1200", spacing=0.6, report=False)
+    # the small part reads only 12 nm PV of the map: at 15 nm/s the floor (14 nm) is above it and refused
+    figs = mod.main(tmp_path, surface="xy-polynomial:radius=7,triangles=1200", spacing=0.6, report=False,
+                    tif="gaussian:fwhm=3,peak_rate=5")
     one, two = figs
     assert (tmp_path / "after-1.xyz").is_file() and (tmp_path / "it2" / "toolpath.nc").is_file()
     assert json.loads((tmp_path / "it2" / "summary.json").read_text())["figuring"]["error_map"].endswith("after-1.xyz")
@@ -192,7 +194,7 @@ def test_two_iteration_example_runs(tmp_path):
     # the second iteration's error is what the first left (the process 5 % off plus 0.5 nm of texture) ...
     assert one["residual_rms_nm"] < two["initial_rms_nm"] < 0.5 * one["initial_rms_nm"]
     # ... and it takes it down again with the gentler finishing tool (its floor under the error), removing less
-    # (dwell x peak rate: 2 nm/s against 15 nm/s)
+    # (dwell x peak rate: 2 nm/s against 5 nm/s)
     assert two["residual_rms_nm"] < two["initial_rms_nm"] and not two["forced"]
     assert two["floor_nm"] < two["initial_pv_nm"]
-    assert two["total_time_s"] * 2.0 < one["total_time_s"] * 15.0
+    assert two["total_time_s"] * 2.0 < one["total_time_s"] * 5.0

@@ -127,10 +127,10 @@ def _independent_removal(samples_xy, sample_s, pixels_xy, peak_rate, sigma):
     return out
 
 
-def test_low_order_map_is_figured_to_2_percent_inside_the_aperture_by_an_independent_sum(maps):
+@pytest.fixture(scope="module")
+def figured_r20(maps):
     """Disc R 20 mm, defocus + astigmatism + coma, TIF 5 mm FWHM at 2 nm/s, 1 mm spacing, clear aperture
-    r <= 16 mm: the reported residual is <= 2 % of the initial RMS and a removal summed here over the machine
-    samples (not simulate/, not dwell/) agrees with it to 1 % of the initial RMS."""
+    r <= 16 mm (issue 28's case), through the whole job."""
     import warnings
 
     from polishpath.pipeline import JobConfig, run
@@ -140,7 +140,13 @@ def test_low_order_map_is_figured_to_2_percent_inside_the_aperture_by_an_indepen
                     report=False, error_map_options={"ca_margin_mm": 4.0})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
-        job = run(cfg)
+        return run(cfg)
+
+
+def test_low_order_map_is_figured_to_2_percent_inside_the_aperture_by_an_independent_sum(figured_r20):
+    """The reported residual is <= 2 % of the initial RMS and a removal summed here over the machine samples
+    (not simulate/, not dwell/) agrees with it to 1 % of the initial RMS."""
+    job = figured_r20
     fg = job.summary()["figuring"]
     init, res = fg["initial_rms_nm"], fg["residual_rms_nm"]
     assert res <= 0.02 * init, fg["verdict"]
@@ -158,3 +164,29 @@ def test_low_order_map_is_figured_to_2_percent_inside_the_aperture_by_an_indepen
     assert float(np.std(err)) == pytest.approx(init, rel=0.02)  # the same aperture and error as reported
     assert abs(indep - res) <= 0.01 * init, (indep, res, init)
     assert indep <= 0.02 * init
+
+
+def test_every_dwell_time_is_delivered_within_the_feed_and_chord_limits(figured_r20):
+    """Issue 28, item 3: each dwell region gets its solved time to 0.5 % RMS and 5 % at worst (was 2.5 % and
+    44 %), measured here from the samples' parameters (not the stage's own figure), with every sample's feed
+    at most the machine's and the chord error within the tolerance."""
+    job = figured_r20
+    tp = job.tool_path
+    want = job.figuring.times_s
+    T = tp.period_ms / 1000.0
+    got = np.zeros(len(want))
+    sp, dp = np.asarray(tp.sample_params), np.asarray(tp.dwell_params)
+    pieces, pp = np.asarray(tp.sample_pieces), np.asarray(tp.piece_params)
+    for k in range(len(pieces) - 1):  # the time at a parameter: linear over the samples, one period apart
+        s = sp[pieces[k]:pieces[k + 1]]
+        idx = np.flatnonzero((dp >= pp[k]) & ((dp < pp[k + 1]) if k < len(pieces) - 2 else True))
+        d = dp[idx]
+        ends = np.concatenate([[s[0]], 0.5 * (d[1:] + d[:-1]), [s[-1]]])
+        got[idx] = np.diff(np.interp(ends, s, np.arange(len(s)) * T))
+    rel = got / want - 1.0
+    assert np.sqrt(np.mean(rel**2)) <= 0.005, np.sqrt(np.mean(rel**2))
+    assert np.abs(rel).max() <= 0.05, np.abs(rel).max()
+    fg = job.summary()["figuring"]
+    assert fg["delivered_time_error_rms"] == pytest.approx(np.sqrt(np.mean(rel**2)), rel=1e-6)
+    assert tp.feed_mm_min.max() <= 3000.0 * (1 + 1e-9)  # the top feed (5 x 600 mm/min)
+    assert tp.stats["chord_error_max"] <= 0.001 * (1 + 1e-6)

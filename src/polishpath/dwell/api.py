@@ -154,7 +154,9 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
                     solve_pitch_mm=solve_pitch_mm, max_iter=max_iter, centres_xy=cen)
     init_rms, init_pv = rms_pv(target.error_nm[valid])
     floor = float(np.mean(rmin[valid])) if valid.any() else 0.0
-    fc = FloorCheck(floor, init_pv, init_rms, tif_peak_rate(tif), float(max_feed_mm_min), spacing,
+    straight = minimum_times(xyz, pieces, max_feed_mm_min)  # the steps at the top feed, no turn
+    turn_share = float(np.clip(1.0 - straight.sum() / max(float(tmin.sum()), 1e-300), 0.0, 1.0))
+    fc = FloorCheck(floor, init_pv, init_rms, tif_peak_rate(tif), float(max_feed_mm_min), spacing, turn_share,
                     floor_exceeds(floor, init_pv))
     scale = advice_scale(floor, init_pv)
     if scale < 1.0:  # the floor is above the advised share: the parameters that bring it there, re-solved
@@ -223,7 +225,11 @@ def _with_advice(fc: FloorCheck, scale: float, pts, target0: Target, rmin, tmin,
     res = (t.removal_nm - removal_map(t.grid, solve_kw["centres_xy"], sol.times_s, tif))[valid]
     rr, rp = rms_pv(res)
     sp = fc.spacing_mm / scale
-    adv = FloorAdvice(scale, fc.floor_nm * scale, fc.peak_rate_nm_s * scale, fc.max_feed_mm_min / scale,
+    # only the straight part of the minimum time goes as 1 / feed: it must bring the floor down alone
+    feed_part = 1.0 - fc.turn_share
+    feed_scale = (scale - fc.turn_share) / feed_part if feed_part > 0 else -1.0
+    feed = fc.max_feed_mm_min / feed_scale if feed_scale > 0 else float("nan")
+    adv = FloorAdvice(scale, fc.floor_nm * scale, fc.peak_rate_nm_s * scale, feed,
                       sp if sp <= reach / 3.0 else float("nan"), rr, rp)
     return dataclasses.replace(fc, advice=adv)
 
@@ -292,6 +298,7 @@ def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]
     return {
         "verdict": lead, "floor_nm": st["floor_nm"],
         "floor_share_of_error_pv": fc.ratio if fc is not None else None,
+        "floor_turn_share": fc.turn_share if fc is not None else None,
         "forced": bool(fc is not None and fc.forced), "refusals": list(fc.refusals) if fc is not None else [],
         "floor_advice": fc.advice.to_dict() if fc is not None and fc.advice is not None else None,
         "initial_rms_nm": st["initial_rms_nm"], "initial_pv_nm": st["initial_pv_nm"],

@@ -34,7 +34,8 @@ class FloorAdvice:
     peak_rate_nm_s : float
         Largest TIF peak rate, nm/s: exact (the removal is proportional to the rate).
     max_feed_mm_min : float
-        Least top feed, mm/min: about (the minimum times go as 1 / feed where the path's turns do not slow it).
+        Least top feed, mm/min: about (the minimum times go as 1 / feed where the path's turns do not slow it;
+        that part alone is scaled), NaN when the turns' part of the floor is already above the advised floor.
     spacing_mm : float
         Least spacing, mm: about (the floor goes as 1 / spacing), or NaN when that spacing would no longer
         resolve the TIF (above a third of its reach).
@@ -51,17 +52,20 @@ class FloorAdvice:
     model_residual_pv_nm: float
 
     def to_dict(self) -> dict:
-        return dict(self.__dict__)
+        """JSON-ready (NaN: None)."""
+        return {k: (None if v != v else v) for k, v in self.__dict__.items()}
 
     def text(self, initial_rms_nm: float) -> str:
-        alt = f"about a top feed of at least {self.max_feed_mm_min:.4g} mm/min ([error_map] max_feed_mm_min)"
-        if self.spacing_mm == self.spacing_mm:  # not NaN
-            alt += f" or a spacing of at least {self.spacing_mm:.3g} mm"
+        alts = []
+        if self.max_feed_mm_min == self.max_feed_mm_min:  # not NaN
+            alts.append(f"a top feed of at least {self.max_feed_mm_min:.4g} mm/min ([error_map] max_feed_mm_min)")
+        if self.spacing_mm == self.spacing_mm:
+            alts.append(f"a spacing of at least {self.spacing_mm:.3g} mm")
+        alt = (", or about " + " or ".join(alts)) if alts else ""
         return (f"Parameters that would work (a floor of {self.floor_nm:.3g} nm): a TIF peak rate of at most "
                 f"{self.peak_rate_nm_s:.3g} nm/s (re-solved: the solver's model then leaves "
                 f"{self.model_residual_rms_nm:.3g} nm RMS, {self.model_residual_pv_nm:.3g} nm PV, from "
-                f"{initial_rms_nm:.3g} nm RMS), or {alt}, each lowering the floor in proportion where the path's "
-                "turns do not slow it.")
+                f"{initial_rms_nm:.3g} nm RMS){alt}.")
 
 
 @dataclass(frozen=True)
@@ -76,6 +80,9 @@ class FloorCheck:
         The error over the clear aperture, nm (RMS about the mean).
     peak_rate_nm_s, max_feed_mm_min, spacing_mm : float
         The parameters that make the floor.
+    turn_share : float
+        Share of the minimum time that the path's turns add over its steps at the top feed (the chord
+        tolerance at the interpolation period slows the feed there; no top feed changes that part).
     exceeds : bool
         ``floor_nm > FIGURING_FLOOR_MAX_SHARE x error_pv_nm``: refused unless forced.
     advice : FloorAdvice or None
@@ -92,6 +99,7 @@ class FloorCheck:
     peak_rate_nm_s: float
     max_feed_mm_min: float
     spacing_mm: float
+    turn_share: float
     exceeds: bool
     advice: FloorAdvice | None = None
     forced: bool = False
@@ -106,7 +114,8 @@ class FloorCheck:
         return (f"every dwell point gets at least the time the path takes through its region at the top feed "
                 f"{self.max_feed_mm_min:.4g} mm/min, and with those times alone this TIF (peak "
                 f"{self.peak_rate_nm_s:.3g} nm/s) at {self.spacing_mm:.3g} mm spacing removes {self.floor_nm:.4g} nm "
-                "on average; its unevenness (the part's edge, the path's turns, each time delivered a little off) "
+                f"on average ({100 * self.turn_share:.0f} % of that minimum time is the path's turns, where the chord "
+                "tolerance slows the feed); its unevenness (the part's edge, the path's turns, each time delivered a little off) "
                 "stays in the residual")
 
 

@@ -23,7 +23,8 @@ import numpy as np
 from .. import progress, resources
 from ..axes import with_tool_axes
 from ..config import JobConfig, parse_job
-from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS, MAX_FEED_FACTOR
+from ..defaults import (DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS, FIGURING_REGION_TOL,
+                        FIGURING_SCHEDULE_PASSES, FIGURING_TMIN_HEADROOM, FIGURING_TURN_HEADROOM, MAX_FEED_FACTOR)
 from ..errors import ParameterError, PlanningError
 from ..provenance import resolve_seed
 from ..types import Surface, SurfacePath
@@ -33,7 +34,7 @@ from .surfaceplan import AUTO_MARGIN_FACTOR, SurfacePlan, plan_on_surface
 from .surfaceplan import _honour_surface_spacing  # noqa: F401  (tests/test_pipeline_wiring.py)
 
 __all__ = ["run", "Job", "JobConfig", "SurfacePlan", "plan_on_surface", "rebuild_report", "check_machine_output",
-           "figure_for_job", "build_tif", "machine_profile", "post_name", "choose_samples_mode", "samples_held_for",
+           "figure_for_job", "least_times", "build_tif", "machine_profile", "post_name", "choose_samples_mode", "samples_held_for",
            "AUTO_MARGIN_FACTOR", "BOUNDARY_REPLANS"]
 
 #: re-plans with a wider margin when the machine path still leaves the part by more than the tolerance
@@ -113,6 +114,9 @@ def run(config: JobConfig | None = None, **options: Any) -> Job:
                 fig, max_feed = figure_for_job(cfg, surface, spath, smooth_kw=smooth_kw)
             smooth_kw["dwell_times"] = fig.times_s
             smooth_kw["max_feed_mm_min"] = max_feed
+            # every region's time delivered to the figuring's tolerance (docs/figuring.md, "Delivered by the path")
+            smooth_kw["region_tol"] = FIGURING_REGION_TOL
+            smooth_kw["schedule_passes"] = FIGURING_SCHEDULE_PASSES
         if not samples_mode:  # decided once, on the first plan (a re-plan with a wider margin is of the same size)
             samples_mode = choose_samples_mode(cfg, held_for, spath, smooth_kw, est)
             if samples_mode["mode"] == "stream":
@@ -260,6 +264,19 @@ def build_tif(spec: str | None):
     return rotating_tool_tif(**{k: v for k, v in kw.items() if v is not None})
 
 
+def least_times(spath: SurfacePath, fastest, max_feed: float, period_s: float) -> np.ndarray:
+    """Each dwell point's least time, s (N,): what ``fastest`` (the smoothed path at the top feed) spends in its
+    region, with the headroom of :data:`~polishpath.defaults.FIGURING_TMIN_HEADROOM` on the whole, of
+    :data:`~polishpath.defaults.FIGURING_TURN_HEADROOM` on the part the path's turns add over the straight
+    steps (where the chord tolerance slows the feed, the time depends on where the steps fall), and one period."""
+    from ..dwell import minimum_times, region_times
+
+    fast = region_times(fastest)
+    pieces = spath.planar.pieces if spath.planar is not None else np.array([0, len(spath.xyz)])
+    turn = np.maximum(fast - minimum_times(spath.xyz, pieces, max_feed), 0.0)
+    return fast * (1.0 + FIGURING_TMIN_HEADROOM) + FIGURING_TURN_HEADROOM * turn + period_s
+
+
 def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_kw: dict[str, Any] | None = None):
     """Solve the job's dwell times from its error map (the dwell stage, wired); returns (Figuring, max feed).
 
@@ -277,13 +294,15 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_
     # the machine's feed limit: [error_map] max_feed_mm_min, else the profile's, else the smoothing stage's default
     default_max = min(MAX_FEED_FACTOR * feed, machine.max_feed_mm_min) if machine is not None else MAX_FEED_FACTOR * feed
     max_feed = float(o.get("max_feed_mm_min", default_max))
-    kw = {k: v for k, v in (smooth_kw or {}).items() if k not in ("dwell_times", "feed_mm_min", "max_feed_mm_min")}
+    kw = {k: v for k, v in (smooth_kw or {}).items() if k not in ("dwell_times", "feed_mm_min", "max_feed_mm_min", "region_tol",
+                                                                   "schedule_passes")}
     fastest = smooth(spath, **kw, feed_mm_min=max_feed, max_feed_mm_min=max_feed)
+    period_s = (cfg.period_ms or (machine.period_ms if machine is not None else DEFAULT_PERIOD_MS)) / 1000.0
     fig = figure_dwell_times(
         surface, spath, emap, build_tif(cfg.tif), max_feed_mm_min=max_feed, alignment=Alignment.from_dict(o),
         bias_nm=o.get("bias_nm", "auto"), method=o.get("method", "auto"), smoothness=float(o.get("smoothness", DEFAULT_SMOOTHNESS)),
         extension_weight=float(o.get("extension_weight", 0.2)), max_uncovered=float(o.get("max_uncovered", 0.02)),
         ca_margin_mm=float(o.get("ca_margin_mm", 0.0)),
-        period_ms=cfg.period_ms or (machine.period_ms if machine is not None else DEFAULT_PERIOD_MS),
-        chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=region_times(fastest), force=cfg.force)
+        period_ms=period_s * 1000.0,
+        chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=least_times(spath, fastest, max_feed, period_s), force=cfg.force)
     return fig, max_feed

@@ -254,6 +254,7 @@ def smooth(
     integrator: str = DEFAULT_INTEGRATOR,
     keep_samples: bool = True,
     chunk_samples: int = DEFAULT_STREAM_SAMPLES,
+    region_tol: float | None = None,
 ) -> ToolPath:
     """Smooth a surface path with a NURBS through every dwell point and sample it.
 
@@ -288,6 +289,10 @@ def smooth(
         each region's time under the curvature limit, a further one only
         where regions are still off their time (see
         :func:`interpolate_constant_period`).
+    region_tol : float, optional
+        A dwell region off its time by more than this share is run again (up to ``schedule_passes`` runs);
+        default :data:`~.interpolate.REGION_RERUN_TOL` (Taylor) / :data:`~.interpolate.DWELL_TIME_TOL`
+        (whole passes). Figuring asks for less (``defaults.FIGURING_REGION_TOL``).
     integrator : {"taylor", "ab-am"}
         How the parameter advances each period: second-order Taylor predictor
         with an exact chord corrector (default), or the paper's Adams-Bashforth /
@@ -380,7 +385,7 @@ def smooth(
             curve, feed_mm_min, period_ms, chord_tol_mm,
             dwell_params=dwell_params[sl], dwell_times=times[sl],
             max_feed_mm_min=max_feed_mm_min, u_range=(off[k], np.nextafter(off[k + 1], -np.inf)),
-            schedule_passes=schedule_passes, integrator=integrator,
+            schedule_passes=schedule_passes, integrator=integrator, region_tol=region_tol,
             keep_samples=keep_samples, chunk_samples=int(chunk_samples),
             chunk_check=check.tally if check is not None else None,
         )
@@ -445,7 +450,8 @@ def smooth(
         {"feed_mm_min": float(feed_mm_min), "period_ms": float(period_ms), "chord_tol_mm": float(chord_tol_mm),
          "max_feed_mm_min": float(max_feed_mm_min), "degree": int(degree), "parametrization": parametrization,
          "area_weighted": bool(area_weighted), "dwell_times": time_source,
-         "schedule_passes": int(schedule_passes), "integrator": integrator},
+         "schedule_passes": int(schedule_passes), "integrator": integrator,
+         **({"region_tol": float(region_tol)} if region_tol is not None else {})},
         seed=surface_path.provenance.seed,
     )
     if keep_samples:

@@ -156,6 +156,7 @@ def interpolate_constant_period(
     keep_samples: bool = True,
     chunk_samples: int = DEFAULT_STREAM_SAMPLES,
     chunk_check=None,
+    region_tol: float | None = None,
 ) -> dict:
     """Samples of the curve at a constant interpolation period.
 
@@ -196,6 +197,9 @@ def interpolate_constant_period(
         (``schedule_rerun_samples``; 0 for whole passes).
     integrator : {"taylor", "ab-am"}
         How the parameter advances each period (:data:`INTEGRATORS`).
+    region_tol : float, optional
+        The miss above which a region (Taylor) or a pass (others) is run again: default
+        :data:`REGION_RERUN_TOL` / :data:`DWELL_TIME_TOL`.
     keep_samples : bool
         False: hold no sample; the kernel runs in chunks of ``chunk_samples``
         and every figure is accumulated chunk by chunk (the same figures;
@@ -289,7 +293,8 @@ def interpolate_constant_period(
     if in_kernel:
         kx, kw = np.polynomial.legendre.leggauss(KERNEL_ORDER)
         kr, held, check = run(rfeed, cap, (SCHEDULING_KERNELS[integrator], dt, dp, kx, kw,
-                                           max(1, int(schedule_passes)), REGION_RERUN_TOL))
+                                           max(1, int(schedule_passes)),
+                                           REGION_RERUN_TOL if region_tol is None else float(region_tol)))
         rfeed = kr.region_feed
     else:
         kr, held, check = run(rfeed, cap)
@@ -312,7 +317,7 @@ def interpolate_constant_period(
         best_rms = float(np.sqrt(np.mean(rel**2)))
         feeds_now, model_now = rfeed, model
         for _ in range(max(0, int(schedule_passes) - 1)):
-            off = (np.abs(rel) > DWELL_TIME_TOL) & ~((rel > 0) & (feeds_now >= vmax * (1 - 1e-12)))
+            off = (np.abs(rel) > (DWELL_TIME_TOL if region_tol is None else region_tol)) & ~((rel > 0) & (feeds_now >= vmax * (1 - 1e-12)))
             if not off.any():
                 break
             f_new, m_new, _ = solve_region_feeds(kc.breaks, kc.coeffs, rb, dp, corrected_targets(dt, spent, model_now),

@@ -180,6 +180,10 @@ def _taylor_run(breaks, coeffs, bends, size, u0, u1, region_b, region_feed, vmax
     best_err = math.inf
     best_f = 0.0
     replay = False
+    f_lo = 0.0        # fastest feed run in this region that was too slow (its relative miss rel_lo > 0)
+    rel_lo = 0.0
+    f_hi = math.inf   # slowest feed run in this region that was too fast (rel_hi < 0)
+    rel_hi = 0.0
     nreg = region_feed.shape[0]
     fresh = state[ST_COUNT] == 0.0
     u = u0 if fresh else state[ST_U]
@@ -233,12 +237,29 @@ def _taylor_run(breaks, coeffs, bends, size, u0, u1, region_b, region_feed, vmax
                     if abs(rel) < best_err:
                         best_err = abs(rel)
                         best_f = f
+                    # the feeds run so far bracket the wanted time: too slow below f_lo, too fast above f_hi
+                    if rel > 0.0 and f > f_lo:
+                        f_lo = f
+                        rel_lo = rel
+                    elif rel < 0.0 and f < f_hi:
+                        f_hi = f
+                        rel_hi = rel
                     if replay:
                         pass
                     elif abs(rel) > rel_tol and runs < max_runs and not (rel > 0.0 and f >= vmax * (1.0 - 1e-12)):
                         # the model asked for the time less this run's own miss
                         miss = (spent - (want - left)) - time_at(lim, wt, f)
                         fn = feed_for_time(lim, wt, length, max(left - miss, 0.1 * left), vmax)
+                        if f_lo > 0.0 and f_hi < math.inf:
+                            # bracketed: the time goes about as a + b / f, so interpolate the miss in 1 / f
+                            # (where the chord limit makes it jump, the model's step may leave the bracket)
+                            x_lo = 1.0 / f_lo
+                            x_hi = 1.0 / f_hi
+                            x = x_lo + rel_lo * (x_hi - x_lo) / (rel_lo - rel_hi)
+                            lo_in = x_hi + 0.05 * (x_lo - x_hi)
+                            hi_in = x_lo - 0.05 * (x_lo - x_hi)
+                            if not (lo_in <= 1.0 / fn <= hi_in):
+                                fn = 1.0 / min(max(x, lo_in), hi_in)
                         if fn != f:
                             region_feed[cur] = fn
                             again = True
@@ -297,6 +318,8 @@ def _taylor_run(breaks, coeffs, bends, size, u0, u1, region_b, region_feed, vmax
                 runs = 1
                 best_err = math.inf
                 replay = False
+                f_lo = 0.0
+                f_hi = math.inf
                 snap_fresh = False
                 snap_n = n
                 snap_u = u
