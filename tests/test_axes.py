@@ -176,6 +176,14 @@ def test_run_folder_and_path_csv_keep_the_axes_and_a_3_axis_run_has_none(tmp_pat
     assert "tool_axes" not in run3.arrays and run3.surface_path.tool_axes is None
     assert "axis_x" not in read_path_csv(three / "path.csv")
     assert (three / "path.csv").read_text().splitlines()[0] == "index,i,j,u,v,x,y,z,nx,ny,nz,dwell_time"
+    # the report draws the tool axes of the 5-axis run only (the 3-axis report has no such section)
+    from polishpath.report import write_report
+
+    w5, w3 = write_report(five), write_report(three)
+    assert "figure_tool_axes" in w5 and w5["figure_tool_axes"].stat().st_size > 5000
+    assert "figure_tool_axes" not in w3 and not (three / "figures" / "tool_axes.png").exists()
+    assert 'id="tool-axes"' in (five / "report.html").read_text()
+    assert 'id="tool-axes"' not in (three / "report.html").read_text()
 
 
 def test_a_3_axis_post_refuses_a_path_with_axes(tmp_path):

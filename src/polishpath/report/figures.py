@@ -353,6 +353,42 @@ def fig_feed_rate(run: RunData):
     return _say(fig, note)
 
 
+def fig_tool_axes(run: RunData):
+    """A 5-axis run's tool axes (issue 27): top view of the dwell points coloured by the axis' tilt from
+    vertical, arrows of the axes' horizontal part; the tilt from vertical and the angle from the normal
+    along the path. A 3-axis run (no ``tool_axes``) has none."""
+    from ..axes import axis_angles_deg
+
+    ax3, xyz, nrm = run.get("tool_axes"), run.get("xyz"), run.get("normals")
+    if ax3 is None or xyz is None or nrm is None:
+        return "not in this run (a 3-axis run: --tool-axis z, the vertical tool)"
+    n = len(xyz)
+    idx = decimate_indices(n, MAX_PATH_POINTS_PNG)
+    tilt = axis_angles_deg(ax3, np.array([[0.0, 0.0, 1.0]]))
+    from_normal = axis_angles_deg(ax3, nrm)
+    fig = _figure(11.0, 4.8)
+    left, right = fig.subplots(1, 2, width_ratios=[1.1, 1.0])
+    sc = left.scatter(xyz[idx, 0], xyz[idx, 1], c=tilt[idx], s=max(1.0, 4000.0 / max(len(idx), 1)), cmap="viridis")
+    arrows = decimate_indices(n, 400)
+    span = float(np.ptp(xyz[:, :2], axis=0).max()) or 1.0
+    left.quiver(xyz[arrows, 0], xyz[arrows, 1], ax3[arrows, 0], ax3[arrows, 1], angles="xy", scale_units="xy",
+                scale=1.0 / (0.08 * span), width=0.003, color="k", alpha=0.7)
+    left.set_aspect("equal")
+    left.set_xlabel("x (mm)")
+    left.set_ylabel("y (mm)")
+    left.set_title("Tool axes seen from above (arrows: horizontal part)")
+    fig.colorbar(sc, ax=left, shrink=0.8).set_label("tilt from vertical (deg)")
+    order = idx / max(n - 1, 1)
+    right.plot(order, tilt[idx], lw=0.6, label="tilt from vertical")
+    right.plot(order, from_normal[idx], lw=0.6, label="angle from the surface normal")
+    right.set_xlabel("path order (0 = start, 1 = end)")
+    right.set_ylabel("degrees")
+    right.legend(loc="best", fontsize=8)
+    law = (run.summary.get("config") or {}).get("tool_axis", "?")
+    right.set_title(f"{law}: at most {float(tilt.max()):.1f} deg from vertical", fontsize=10)
+    return _say(fig, _points_note(len(idx), n))
+
+
 #: name -> (function, caption); the order is the order in the report
 FIGURES: dict[str, tuple[Callable, str]] = {
     "surface_path": (fig_surface_path, "The path on the part, coloured by path order."),
@@ -364,6 +400,7 @@ FIGURES: dict[str, tuple[Callable, str]] = {
     "directions": (fig_directions, "The 8 step directions of the planar grid walk."),
     "turn_angles": (fig_turn_angles, "Turns between consecutive grid steps."),
     "feed_rate": (fig_feed_rate, "Commanded feed along the interpolated path."),
+    "tool_axes": (fig_tool_axes, "The tool axes of a 5-axis run: tilt from vertical and from the normal."),
 }
 
 

@@ -386,6 +386,8 @@ def build_html(run: RunData, figures: dict[str, tuple[Any, Path | None]], *, com
 
     # 5. feed
     parts.append('<section id="feed"><h2>Feed rate along the path</h2>' + block("feed_rate") + "</section>")
+    if figures.get("tool_axes", ("", None))[1] is not None:  # a 5-axis run only (a 3-axis report as before)
+        parts.append('<section id="tool-axes"><h2>Tool axes</h2>' + block("tool_axes") + "</section>")
 
     # 6. simulation
     parts.append(simulation_section(run, _png_data_uri, _table, flatten_items))
