@@ -17,7 +17,6 @@ from .. import progress, resources
 from ..defaults import DEFAULT_MAX_OVERSAMPLING, DEFAULT_MAX_POINTS
 from ..errors import MappingError, ParameterError, PlanningError, SpacingTooLargeError
 from ..pathops import step_mask
-from ..plan.points.blue_noise import EDGE_FACTOR
 from ..types import Flattening, PlanarPath, Region, SurfacePath
 
 SQRT2 = 2.0**0.5
@@ -80,8 +79,8 @@ def plan_on_surface(
         Seed of the pattern's random choices (None only for patterns without any).
     dwell_points : {"grid", "blue-noise"}
         The dwell-point set (see :func:`polishpath.plan.plan`). A blue-noise set's steps are its graph's
-        edges, at most ``EDGE_FACTOR`` x its planar spacing: with ``spacing_on="surface"`` no step on the
-        part exceeds ``EDGE_FACTOR`` x ``spacing`` (instead of the grid's sqrt(2)).
+        edges, at most ``EDGE_FACTOR`` x its planar spacing (:mod:`polishpath.plan.points.blue_noise`):
+        with ``spacing_on="surface"`` no step on the part then exceeds ``EDGE_FACTOR`` x ``spacing``.
     spacing_on : {"surface", "plane"}
         ``surface``: the planar spacing is adjusted (re-planning up to 7 times)
         until neighbouring dwell points, and neighbouring passes, are at most
@@ -172,21 +171,13 @@ def _grid_step_max(planar: PlanarPath, mapped: SurfacePath) -> float:
     boundary, the jump between pieces) are transit moves of the pattern, not
     dwell steps, so they do not set the spacing: where every path point is a
     dwell point of a lattice, only the lattice's neighbour steps count; else
-    (the spiral's points off the grid) every step within a piece counts. A
-    dwell-point set without a lattice (blue noise): the longest edge its graph
-    may have (``EDGE_FACTOR`` x the planar spacing) times the largest 3D /
-    planar length ratio of the path's steps.
+    (the spiral's points off the grid, a set without a lattice) every step
+    within a piece counts.
     """
     d = np.linalg.norm(np.diff(mapped.xyz, axis=0), axis=1)
     if len(d) == 0:
         return 0.0
     valid = step_mask(len(mapped.xyz), planar.pieces)
-    if planar.dwell_points != "grid":
-        # a set without a lattice: its graph's longest possible edge (EDGE_FACTOR x the planar spacing) at
-        # the largest stretch measured along the path's steps, so that a flat part keeps the spacing asked
-        d2 = np.hypot(*np.diff(planar.uv, axis=0).T)
-        ok = valid & (d2 > 0)
-        return float(EDGE_FACTOR * planar.spacing * (d[ok] / d2[ok]).max()) if ok.any() else 0.0
     if planar.lattice is not None and planar.dwell_points_only:
         valid &= planar.lattice.is_step(np.diff(planar.ij, axis=0))
     return float(d[valid].max()) if valid.any() else 0.0
