@@ -273,3 +273,25 @@ def test_the_job_runs_from_the_command_line_with_its_report(tmp_path):
                                    "--dwell-points", "blue-noise", "-o", str(tmp_path / "x"), "--no-report"])
     assert bad.exit_code == 2 and "square grid only" in bad.output and "Traceback" not in bad.output
     assert not (tmp_path / "x").exists()
+
+
+def test_simulate_compares_the_walk_on_a_set_named_after_its_pattern(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from polishpath.cli import app
+
+    out = tmp_path / "sim"
+    r = CliRunner().invoke(app, ["simulate", "hemisphere:R=15,triangles=800", "--patterns",
+                                 "pseudorandom,pseudorandom:blue-noise", "--spacing", "1.0", "--seeds", "1",
+                                 "--patch", "8", "--mode", "interference-free", "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    res = json.loads((out / "results.json").read_text())
+    rows = {row["name"]: row for row in res["rows"]}
+    assert set(rows) == {"pseudorandom", "pseudorandom:blue-noise"}
+    assert res["params"]["plans"]["pseudorandom:blue-noise"]["dwell_points"] == "blue-noise"
+    assert rows["pseudorandom:blue-noise"]["lattice_basis"].startswith("nominal")
+    bad = CliRunner().invoke(app, ["simulate", "hemisphere:R=15,triangles=800", "--patterns",
+                                   "pseudorandom:hexagonal", "-o", str(tmp_path / "x")])
+    assert bad.exit_code == 2 and "dwell-point set 'hexagonal'" in bad.output and "Traceback" not in bad.output

@@ -15,7 +15,7 @@ from ._common import COMPONENT_OPT, SCALE_OPT, UNITS_OPT, _guard, _print_json, _
 @app.command("simulate")
 def simulate_cmd(
     target: str = typer.Argument(..., metavar="SURFACE_OR_RUN_DIR", help="A surface (compare the path patterns on it), or the folder of a finished `polishpath plan ... -o DIR` run (simulate that run's own path on its part)."),
-    patterns: str = typer.Option("pseudorandom,raster,spiral,rectangular", "--patterns", help="SURFACE: comma-separated path patterns to compare."),
+    patterns: str = typer.Option("pseudorandom,raster,spiral,rectangular", "--patterns", help="SURFACE: comma-separated path patterns to compare; PATTERN:SET on a dwell-point set (pseudorandom:blue-noise: no lattice)."),
     spacing: float = typer.Option(job_default("spacing"), "--spacing", "-s", help="SURFACE: dwell-point spacing, mm, on the part as in `plan` (with --spacing-on plane: in the flattened plane). A run keeps its own."),
     spacing_on: str = typer.Option(job_default("spacing_on"), "--spacing-on", help="SURFACE: where --spacing holds, 'surface' (the part, as in `plan`) or 'plane' (the flattened plane)."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Base seed of the planner, the initial surface and the process noise (default 0; RUN_DIR: the run's seed)."),
@@ -157,21 +157,31 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
         region = boundary_region(flat)
     from ..plan import RANDOM_PATTERNS
 
+    from ..plan.points import DWELL_POINT_SETS
+
     planned, info = {}, {}
     for pat in pats:
-        n_plans = seeds if pat in RANDOM_PATTERNS else 1  # a deterministic path is planned once
+        # PATTERN[:SET]: the pattern on a dwell-point set (pseudorandom:blue-noise: the walk without a lattice)
+        base, _, dset = pat.partition(":")
+        dset = dset or "grid"
+        if dset not in DWELL_POINT_SETS:
+            raise ParameterError(f"--patterns: {pat!r} names the dwell-point set {dset!r}.",
+                                 f"Write PATTERN or PATTERN:SET with SET one of {', '.join(DWELL_POINT_SETS)} "
+                                 "(e.g. pseudorandom:blue-noise).")
+        n_plans = seeds if base in RANDOM_PATTERNS else 1  # a deterministic path is planned once
         plans = []
         for i in range(n_plans):
             with progress.stage(f"planning {pat} ({spacing:g} mm on the "
                                 f"{'part' if spacing_on == 'surface' else 'plane'}"
                                 + (f", seed {seed + i})" if n_plans > 1 else ")")):
                 # margin=None: the job's own automatic margin, so `plan` at this spacing plans the same grid
-                plans.append(plan_on_surface(flat, region, spacing, pattern=pat, seed=seed + i,
-                                             spacing_on=spacing_on, margin=None))
+                plans.append(plan_on_surface(flat, region, spacing, pattern=base, seed=seed + i,
+                                             spacing_on=spacing_on, margin=None, dwell_points=dset))
         sp = plans[0]
-        planned[pat] = [p.planar for p in plans] if pat in RANDOM_PATTERNS else sp.planar
+        planned[pat] = [p.planar for p in plans] if base in RANDOM_PATTERNS else sp.planar
         info[pat] = {"n_points": int(sp.planar.n_points), "planar_spacing_mm": float(sp.planar_spacing),
-                     "spacing_mm": float(spacing), "spacing_on": spacing_on, "random": pat in RANDOM_PATTERNS,
+                     "spacing_mm": float(spacing), "spacing_on": spacing_on, "random": base in RANDOM_PATTERNS,
+                     "dwell_points": dset,
                      "seeds": [seed + i for i in range(n_plans)], "provenance": sp.planar.provenance.to_dict()}
     sim_dir = output / "simulation" if into_run else output
     with staged as stage, progress.stage(f"simulating {len(pats)} paths x {seeds} seeds on a {patch:g} mm patch at "
