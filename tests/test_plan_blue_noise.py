@@ -275,6 +275,7 @@ def test_the_job_runs_from_the_command_line_with_its_report(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_simulate_compares_the_walk_on_a_set_named_after_its_pattern(tmp_path):
     import json
 
