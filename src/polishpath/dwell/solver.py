@@ -512,7 +512,8 @@ def removal_map(grid: Grid, xy: np.ndarray, time_s: np.ndarray, tif) -> np.ndarr
     for di, dj, wt in ((0, 0, (1 - tx) * (1 - ty)), (0, 1, tx * (1 - ty)), (1, 0, (1 - tx) * ty), (1, 1, tx * ty)):
         I, J = i0 + di, j0 + dj
         ok = (I >= 0) & (I < ny) & (J >= 0) & (J < nx)
-        np.add.at(dens, I[ok] * nx + J[ok], (wt * time_s)[ok])
+        # bincount, not np.add.at: the same sums, ~10x faster over the 10^7 machine samples of a large job
+        dens += np.bincount(I[ok] * nx + J[ok], weights=(wt * time_s)[ok], minlength=ny * nx)
     reach = tif_reach_mm(tif)
     Hk = int(math.ceil(reach / h))
     ki, kj = np.mgrid[-Hk:Hk + 1, -Hk:Hk + 1]
