@@ -75,6 +75,7 @@ class RotaryMotion:
         self.T = np.zeros(0)
         self.V = np.zeros((0, 3))
         self.Q = np.zeros((0, len(self.letters)))
+        self.M = np.zeros(0, bool)  # which buffered points are dwell points (block ends)
         self.last = None  # (contact point, param, time) of the last sample seen
         self.w_prev = None  # the last written position and words
         self.q_prev = None
@@ -129,6 +130,7 @@ class RotaryMotion:
         self.T = np.concatenate([self.T, T])
         self.V = np.vstack([self.V, V])
         self.Q = np.vstack([self.Q, Q])
+        self.M = np.concatenate([self.M, must])
         ends = np.flatnonzero(must)
         if len(ends):
             self._segment(len(self.T) - len(T) + int(ends[-1]) + 1)
@@ -148,12 +150,12 @@ class RotaryMotion:
         T0 = np.concatenate([[self.t_written], self.T[:n]])
         V0 = np.vstack([self._start_v(), self.V[:n]])
         Q0 = np.vstack([self._start_q(), self.Q[:n]])
-        must = np.zeros(len(T0), bool)
+        must = np.concatenate([[False], self.M[:n]])
         must[-1] = True
         ends = rotary_block_ends(P0, T0, V0, Q0, must, self.tol, self.otol, self.post.axes_from_coords)
         self._emit(P0[ends], T0[ends], Q0[ends], V0[ends])
         self._keep = (P0[-1], V0[-1], Q0[-1])
-        self.P, self.T, self.V, self.Q = self.P[n:], self.T[n:], self.V[n:], self.Q[n:]
+        self.P, self.T, self.V, self.Q, self.M = self.P[n:], self.T[n:], self.V[n:], self.Q[n:], self.M[n:]
 
     def _start_p(self):
         return self._keep[0][None, :] if hasattr(self, "_keep") else self.w_prev[None, :]
