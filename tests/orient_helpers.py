@@ -46,9 +46,24 @@ def body(text: str, mark: str) -> list[str]:
 _WORD = re.compile(r"(?:([A-Z][A-Z0-9]*)(=)|([A-Z]))([-+]?[0-9]*\.?[0-9]+)")
 
 
-def read_sinumerik(text: str) -> OrientedMoves:
+def trt_axis(kind: str, angles: dict) -> np.ndarray:
+    """The tool axis in the part's frame of a table-tilting machine's rotary positions (degrees), as LinuxCNC's
+    trt kinematics define them: xyzac-trt (sin A sin C, sin A cos C, cos A), xyzbc-trt (-cos C sin B, sin C sin B,
+    cos B)."""
+    c = np.radians(angles.get("C", 0.0))
+    if kind == "xyzac-trt":
+        a = np.radians(angles.get("A", 0.0))
+        return np.array([np.sin(a) * np.sin(c), np.sin(a) * np.cos(c), np.cos(a)])
+    b = np.radians(angles.get("B", 0.0))
+    return np.array([-np.cos(c) * np.sin(b), np.sin(c) * np.sin(b), np.cos(b)])
+
+
+def read_sinumerik(text: str, rotary: str | None = None) -> OrientedMoves:
+    """The moves of a Sinumerik program; ``rotary``: the kinematics (``xyzac-trt``, ``xyzbc-trt``) of a program
+    that writes the rotary axes' positions (A, B, C: modal, degrees) instead of A3/B3/C3."""
     ends, starts, axes, times, rapids = [], [], [], [], []
     pos, axis = np.full(3, np.nan), np.array([0.0, 0.0, 1.0])
+    rot: dict = {}
     motion, inverse, feed = None, False, None
     for ln in body(text, ";"):
         words = {}
@@ -74,10 +89,16 @@ def read_sinumerik(text: str) -> OrientedMoves:
             feed = words["F"]
         moved = any(a in words for a in "XYZ")
         turned = any(a in words for a in ("A3", "B3", "C3"))
+        if rotary is not None:
+            assert not turned, f"A3/B3/C3 in a program of rotary positions: {ln!r}"
+            turned = any(a in words for a in "ABC")
         if not (moved or turned):
             continue
         new = np.array([words.get(a, pos[i]) for i, a in enumerate("XYZ")])
-        if turned:
+        if turned and rotary is not None:
+            rot.update({a: words[a] for a in "ABC" if a in words})
+            axis = trt_axis(rotary, rot)
+        elif turned:
             v = np.array([words.get(a, 0.0) for a in ("A3", "B3", "C3")])
             axis = v / np.linalg.norm(v)
         if motion == 1:

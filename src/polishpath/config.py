@@ -144,7 +144,8 @@ class JobConfig:
         Adams-Bashforth / Adams-Moulton (see docs/machine-output.md).
     post : str or None
         Post-processor writing the machine file (:mod:`polishpath.export.post`):
-        ``linuxcnc`` (toolpath.nc), ``fanuc`` (G06.2 NURBS), ``xyz``, ``csv``; None:
+        ``linuxcnc`` (toolpath.nc), ``fanuc`` (G06.2 NURBS), ``xyz``, ``csv``, ``sinumerik``
+        (toolpath.mpf), ``abb`` (toolpath.mod); None:
         the machine profile's, else ``linuxcnc``.
     machine : str or None
         Machine profile (a TOML file or a built-in name such as ``generic-3axis``):
@@ -248,7 +249,8 @@ class JobConfig:
         None, "--post",
         help="Post-processor of the machine file: linuxcnc (default: LinuxCNC 2.8/2.9 G-code, toolpath.nc), fanuc "
              "(G06.2 NURBS for Fanuc 15i/30i-class controls with NURBS interpolation), xyz (the paper's X Y Z file), "
-             "csv (path.csv). Settings: a [post] table in --config.")
+             "csv (path.csv), sinumerik (Sinumerik 840D TRAORI, toolpath.mpf), abb (ABB RAPID robot, toolpath.mod). "
+             "Settings: a [post] table in --config.")
     machine: str | None = option(
         None, "--machine",
         help="Machine profile: a TOML file of axis limits (see examples/machine-*.toml) or the built-in "

@@ -89,7 +89,7 @@ FIGURING_ARRAY_KEYS = (
 #: every top-level entry a run folder may hold (the export stage's machine files, this module's
 #: files, the report, a simulation): a folder holding only these is a run folder to replace whole
 RUN_FOLDER_ENTRIES = frozenset({
-    "path.csv", "toolpath.xyz", "toolpath.nc", "flat.obj", ARRAYS_FILE, SUMMARY_FILE, JOB_FILE,
+    "path.csv", "toolpath.xyz", "toolpath.nc", "toolpath.mpf", "toolpath.mod", "flat.obj", ARRAYS_FILE, SUMMARY_FILE, JOB_FILE,
     "report.html", "figures", SIMULATION_DIR,
 })
 

@@ -228,11 +228,12 @@ def check_machine_output(cfg: JobConfig):
     machine = machine_profile(cfg)
     post = get_post(post_name(cfg), job_post_settings(cfg), kinematics=machine.kinematics if machine else None)
     post.check(mode=cfg.gcode, tool_radius=cfg.tool_radius, tool_axes=cfg.tool_axis != "z")
-    if machine is not None and post.filename != "toolpath.nc":
+    if machine is not None and post.filename in ("toolpath.xyz", "path.csv"):  # the files without feeds
         raise ParameterError(
             f"The {post.name} post cannot carry a machine profile's feed schedule: {post.filename} has no feeds "
             "(the xyz file runs at a constant period, path.csv holds dwell times).",
-            "Use a G-code post (--post linuxcnc or fanuc) with --machine, or leave --machine out.")
+            "Use a post with timed blocks (--post linuxcnc, fanuc, sinumerik or abb) with --machine, or leave "
+            "--machine out.")
     return machine
 
 

@@ -57,7 +57,7 @@ import numpy as np
 from ...errors import ParameterError
 from ..textfmt import KEEP_POINT, NO_TRAILING_ZEROS, fixed_text
 from .blocks import round_feeds
-from .oriented import AXIS_DECIMALS, OrientedPost, fixed_columns, unit_rows
+from .oriented import OrientedPost, fixed_columns, unit_rows
 
 __all__ = ["RapidPost", "RapidSettings", "tool_quaternions", "quaternion_angles_deg", "MAX_TILT_DEG"]
 
@@ -145,7 +145,8 @@ class RapidPost(OrientedPost):
     #: the G-code settings a RAPID module has no place for (left at these values)
     no_gcode: ClassVar[dict[str, Any]] = {"preamble": "", "safety_block": "", "blending": "", "spindle_rpm": 0.0,
                                           "coolant_on": "", "postamble": "", "program_number": None, "arcs": False}
-    defaults: ClassVar[dict[str, Any]] = {**no_gcode, "leading_zero": True}  # RAPID: 0.5, not .5
+    defaults: ClassVar[dict[str, Any]] = {**no_gcode, "leading_zero": True,  # RAPID: 0.5, not .5
+                                          "orientation_decimals": 6}
     own_settings: ClassVar[type] = RapidSettings
 
     def __init__(self, settings=None, kinematics=None):
@@ -159,7 +160,7 @@ class RapidPost(OrientedPost):
             raise ParameterError(f"[post] for {self.name}: a robot has no inverse-time feed; each MoveL's speeddata "
                                  "keeps its block's time.", "Leave feed_mode out.")
 
-    def feed_mode(self, tool_radius: float) -> str:
+    def feed_mode(self, tool_radius: float, rotary: bool = False) -> str:
         return "speeddata"
 
     def orientation_lines(self, three_axis: bool) -> list[str]:
@@ -203,41 +204,46 @@ class RapidPost(OrientedPost):
                                  "undefined for a tool pointing straight down the part.",
                                  "Turn the part (its Z towards the tool) or use a tool-axis law nearer the Z.")
 
-    def _target(self, point, axis) -> str:
-        q = np.round(tool_quaternions(np.asarray(axis, float)[None, :])[0], AXIS_DECIMALS) + 0.0
+    # ---------------------------------------------------------------- the rotary-words hook: quaternions
+    def orientation_letters(self) -> tuple[str, ...]:
+        return ("q1", "q2", "q3", "q4")
+
+    def orientation_coords(self, axes: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
+        a = unit_rows(axes)
+        self.check_axes(a)
+        return tool_quaternions(a)  # a function of the axis: continuous, q2 > 0 (no sign to carry over)
+
+    def axes_from_coords(self, coords: np.ndarray) -> np.ndarray:
+        q = np.asarray(coords, dtype=np.float64)
+        w, x, y, z = (q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-300)).T
+        # minus the z column of the rotation: the frame's z points from the spindle into the part
+        return -np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+
+    # ---------------------------------------------------------------- the lines
+    def _target(self, point, coords) -> str:
         p = ",".join(self.f(v) for v in point)
-        return f"[[{p}],[{','.join(fixed_text(v, AXIS_DECIMALS, self.styles()) for v in q)}],[0,0,0,0]," \
-               "[9E9,9E9,9E9,9E9,9E9,9E9]]"
+        return f"[[{p}],[{','.join(self.fo(v) for v in coords)}],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]"
 
     def _tail(self) -> str:
         return f"{self.own.tool}\\WObj:={self.own.wobj};"
-
-    def rapid(self, point, axis, near_part=False) -> str:
-        self.check_axes(unit_rows(np.asarray(axis, float)[None, :]))
-        move = "MoveL" if near_part else "MoveJ"  # straight down to the approach point
-        return f"    {move} {self._target(point, axis)}, {self.own.rapid_speed}, fine, {self._tail()}"
 
     def _speed(self, v_tcp: str, v_ori: str) -> str:
         o = self.own
         return f"[{v_tcp},{v_ori},{fixed_text(o.leax_mm_s, 3, NO_TRAILING_ZEROS)}," \
                f"{fixed_text(o.reax_deg_s, 3, NO_TRAILING_ZEROS)}]"
 
-    def feed_move(self, point, axis, feed_mm_min, path_follows) -> str:
+    def rapid(self, point, coords, near_part=False) -> str:
+        move = "MoveL" if near_part else "MoveJ"  # straight down to the approach point
+        return f"    {move} {self._target(point, coords)}, {self.own.rapid_speed}, fine, {self._tail()}"
+
+    def feed_move(self, point, coords, feed_mm_min, path_follows) -> str:
         v = self.ff(feed_mm_min / 60.0)
-        return f"    MoveL {self._target(point, axis)}, {self._speed(v, self.ff(100.0))}, fine, {self._tail()}"
+        return f"    MoveL {self._target(point, coords)}, {self._speed(v, self.ff(100.0))}, fine, {self._tail()}"
 
-    def motion_state(self, first_point, first_axis) -> dict:
-        q = np.round(tool_quaternions(np.asarray(first_axis, float)[None, :]), AXIS_DECIMALS) + 0.0
-        return {"q": q[0]}
-
-    def path_blocks(self, prev, W, A, dt, state) -> tuple[str, float]:
+    def path_blocks(self, prev, W, R, dt, state) -> tuple[str, float]:
         s = self.settings
-        A = unit_rows(A)
-        self.check_axes(A)
-        Q = np.round(tool_quaternions(A), AXIS_DECIMALS) + 0.0
-        qprev = np.vstack([state["q"][None, :], Q[:-1]])
         length = np.linalg.norm(W - prev, axis=1)
-        angle = quaternion_angles_deg(qprev, Q)
+        angle = quaternion_angles_deg(np.vstack([state["coords"][None, :], R[:-1]]), R)
         dt = np.maximum(dt, 1e-12)
         # a zero length (or angle) leaves the other to set the time: its speed is any positive number
         v_tcp = round_feeds(np.where(length > 0, length / dt, 1e-3), s.feed_decimals, s.feed_resolution)
@@ -246,14 +252,9 @@ class RapidPost(OrientedPost):
         fd = 9 if s.feed_decimals is None else s.feed_decimals
         fstyle = (self.styles() & ~KEEP_POINT) | (NO_TRAILING_ZEROS if s.feed_decimals is None else 0)
         pos = fixed_columns(W, s.decimals, self.styles())
-        qs = fixed_columns(Q, AXIS_DECIMALS, self.styles())
+        qs = fixed_columns(R, s.orientation_decimals, self.styles())
         vt, vo = (fixed_columns(v[:, None], fd, fstyle)[0] for v in (v_tcp, v_ori))
         tail = f"{self._zone()}, {self._tail()}"
-        leax = fixed_text(self.own.leax_mm_s, 3, NO_TRAILING_ZEROS)
-        reax = fixed_text(self.own.reax_deg_s, 3, NO_TRAILING_ZEROS)
         lines = [f"    MoveL [[{pos[0][i]},{pos[1][i]},{pos[2][i]}],[{qs[0][i]},{qs[1][i]},{qs[2][i]},{qs[3][i]}],"
-                 f"[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], [{vt[i]},{vo[i]},{leax},{reax}], {tail}"
-                 for i in range(len(W))]
-        state["q"] = Q[-1]
+                 f"[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], {self._speed(vt[i], vo[i])}, {tail}" for i in range(len(W))]
         return "\n".join(lines) + "\n", secs
-
