@@ -23,8 +23,9 @@ graph's, not the walk's.
    path points that are both its neighbours, or after / before a piece end
    (O(1) each on a doubly linked list); else a 2-opt insertion
    (``.. a a' .. c c' ..`` -> ``.. a u c .. a' c' ..``, ``(a', c')`` an edge,
-   the middle reversed); else a kick (a stretch ``a x c`` or ``a x y c`` between
-   two of its neighbours becomes ``a u c``, and ``x``, ``y`` are placed again).
+   the middle reversed); else a kick (a stretch ``a x .. c`` of up to
+   ``KICK_MAX`` inner points between two of its neighbours becomes ``a u c``, and
+   the inner points are placed again).
 5. What is left is walked as a sub-path from a leftover point and joined to a
    piece end to end or spliced in whole; a sub-path that nothing takes stays a
    piece of its own (a tool lift), counted as ``extra_pieces``: never a gap.
@@ -60,6 +61,10 @@ from ._steps import (
 )
 from ._endgame import _reverse_piece
 from ._treap import TV, tinorder, tmerge, tnew, trank, tsplit, tsucc
+
+
+#: Longest stretch (inner points) a kick takes out of the path to make room for a leftover point.
+KICK_MAX = 6
 
 
 @numba.njit(cache=True)
@@ -164,7 +169,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
     radius = steer
     deleted = 0
     escapes = 0
-    max_escapes = 16 + n_comp // 100000
+    max_escapes = 16 + n_comp // 10000
     tnew(start, T)
     root = start
     head = start
@@ -369,31 +374,32 @@ def _try_two_opt(u, indptr, indices, vis, nxt, prv, maxlen):
 
 
 @numba.njit(cache=True)
-def _try_kick(u, indptr, indices, vis, nxt, prv):
-    """A kick: a stretch ``a x c`` (or ``a x y c``) with ``a``, ``c`` neighbours of unvisited ``u`` becomes ``a u c``.
+def _try_kick(u, indptr, indices, vis, nxt, prv, out):
+    """A kick: a stretch ``a x .. c`` (1 to ``KICK_MAX`` inner points) with ``a``, ``c`` neighbours of
+    unvisited ``u`` becomes ``a u c``; the shortest such stretch is taken.
 
-    The stretch's inner points leave the path (``vis`` 0) to be spliced in again elsewhere. Returns the
-    points taken out ``(x, y)`` (``y`` -1 for a stretch of one), or ``(-1, -1)``.
+    The stretch's inner points leave the path (``vis`` 0) to be placed again elsewhere; they are written to
+    ``out``. Returns how many (0: no kick).
     """
     deg = indptr[u + 1] - indptr[u]
     off = np.random.randint(deg) if deg > 0 else 0
-    for length in range(1, 3):
+    for length in range(1, KICK_MAX + 1):
         for kk in range(deg):
             a = indices[indptr[u] + (kk + off) % deg]
             if vis[a] == 0:
                 continue
             for side in range(2):
+                c = a
+                for _ in range(length + 1):
+                    c = nxt[c] if side == 0 else prv[c]
+                    if c < 0 or c == u:
+                        break
+                if c < 0 or c == u or not _adjacent(u, c, indptr, indices):
+                    continue
                 x = nxt[a] if side == 0 else prv[a]
-                if x < 0:
-                    continue
-                y = x
-                if length == 2:
-                    y = nxt[x] if side == 0 else prv[x]
-                    if y < 0:
-                        continue
-                c = nxt[y] if side == 0 else prv[y]
-                if c < 0 or not _adjacent(u, c, indptr, indices):
-                    continue
+                for i in range(length):
+                    out[i] = x
+                    x = nxt[x] if side == 0 else prv[x]
                 if side == 0:
                     nxt[a] = u
                     prv[u] = a
@@ -405,21 +411,19 @@ def _try_kick(u, indptr, indices, vis, nxt, prv):
                     prv[u] = c
                     nxt[c] = u
                 vis[u] = 1
-                vis[x] = 0
-                nxt[x] = -1
-                prv[x] = -1
-                if length == 2:
-                    vis[y] = 0
-                    nxt[y] = -1
-                    prv[y] = -1
-                return x, (y if length == 2 else -1)
-    return -1, -1
+                for i in range(length):
+                    vis[out[i]] = 0
+                    nxt[out[i]] = -1
+                    prv[out[i]] = -1
+                return length
+    return 0
 
 
 @numba.njit(cache=True)
 def _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks):
     """Splice queued points until the queue is empty (a placed point queues its unvisited neighbours)."""
     cap = queue.shape[0]
+    kicked = np.empty(KICK_MAX, dtype=np.int64)
     while qh < qt:
         u = queue[qh % cap]
         qh += 1
@@ -432,12 +436,13 @@ def _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_
                                                            or _try_two_opt(u, indptr, indices, vis, prv, nxt, 2000)):
                 res = 3
             elif stats[ST_KICK] < max_kicks:
-                x, y = _try_kick(u, indptr, indices, vis, nxt, prv)
-                if x < 0:
+                m = _try_kick(u, indptr, indices, vis, nxt, prv, kicked)
+                if m == 0:
                     continue
                 stats[ST_KICK] += 1
-                for z in (x, y):
-                    if z >= 0 and inq[z] == 0:
+                for i in range(m):
+                    z = kicked[i]
+                    if inq[z] == 0:
                         inq[z] = 1
                         queue[qt % cap] = z
                         qt += 1
