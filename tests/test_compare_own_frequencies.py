@@ -128,3 +128,27 @@ def test_time_density_peak_sees_a_dwell_lattice_and_not_random_samples():
         time_density_peak_db(lattice, t, h, (0.0, 0.0, 0.5, 0.5))
     with pytest.raises(ParameterError, match="no sample"):
         time_density_peak_db(lattice, t, h, (50.0, 50.0, 62.0, 62.0))
+
+
+def test_the_comparison_reports_each_rows_time_density_peak_from_its_machine_samples():
+    from polishpath.plan import plan
+    from polishpath.simulate.machinetime import machine_timed_path
+    from polishpath.simulate.fair import time_density_peak_db
+    from polishpath.simulate.patterns import square_region
+
+    region = square_region(10.0)
+    planned = {"pseudorandom": [plan(region, 0.5, "pseudorandom", seed=2)], "raster": plan(region, 0.5, "raster")}
+    out = compare_planned(planned, seed=2, seeds=1, mode="interference-free", timing="machine", tif=TIF, dx_mm=DX)
+    rows = {r["name"]: r for r in out["rows"]}
+    prm = out["params"]
+    for name, pp in (("pseudorandom", planned["pseudorandom"][0]), ("raster", planned["raster"])):
+        tp, _ = machine_timed_path(pp.uv, np.full(pp.n_points, prm["dwell_s_per_point"]), pp.pieces,
+                                   spacing_mm=pp.spacing)
+        assert rows[name]["time_density_peak_db"] == pytest.approx(
+            time_density_peak_db(tp.xy, tp.time_s, pp.spacing, prm["eval_bounds_mm"]), rel=1e-9)
+    # the raster's passes print their pitch into where the tool spends its time; the walk's far less
+    assert rows["raster"]["time_density_peak_db"] > rows["pseudorandom"]["time_density_peak_db"] + 3
+    assert "time-density peak" in out["table"]
+    ideal = compare_planned({"raster": planned["raster"]}, seeds=1, mode="interference-free", timing="ideal",
+                            tif=TIF, dx_mm=DX)
+    assert ideal["rows"][0]["time_density_peak_db"] is None  # no machine samples: not read

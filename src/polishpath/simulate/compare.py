@@ -182,7 +182,10 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
         the residual), ``before`` / ``after`` band averages, ``suppression_ratio``
         (None from a flat start), band RMS, peaks, times, ``lattice_spacing_mm``,
         ``lattice_frequencies_per_mm`` and ``lattice_basis``: where its lattice
-        peak was read), ``params``, ``psds``
+        peak was read, ``time_density_peak_db``: the peak of the machine samples'
+        time density at the nominal frequencies of its spacing in the evaluation
+        window, :func:`~polishpath.simulate.fair.time_density_peak_db`; None
+        unless the path is given as machine samples, ``"moves"``), ``params``, ``psds``
         (name -> PSD of the residual, plus ``"before"``), ``residuals`` (name ->
         downsampled residual map for the figures), ``table``.
     """
@@ -227,6 +230,8 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
         row = {"name": name, "residual_band_rms_nm": fm.residual_band_rms_nm, "lattice_peak_db": fm.lattice_peak_db,
                "lattice_spacing_mm": h, "lattice_frequencies_per_mm": [float(f) for f in freqs],
                "lattice_basis": "lattice" if has_lattice else "nominal spacing (no lattice)",
+               # the tool's time density from the machine's constant-period samples (none with ideal timing)
+               "time_density_peak_db": _time_density(xy, dwell, h, eval_bounds) if tm == "moves" else None,
                "pvn": fm.pvn, "residual_rms_nm": fm.residual_rms_nm, "residual_pv_nm": fm.residual_pv_nm,
                "before": ev["before"], "after": ev["after"],
                "suppression_ratio": None if flat_start else ev["suppression_ratio"],
@@ -261,6 +266,17 @@ def compare_paths(paths: dict[str, Any], workpiece: Workpiece, tif: TIF | Direct
     if out_dir is not None:
         write_outputs(out, out_dir)
     return out
+
+
+def _time_density(xy, time_s, spacing_mm: float, bounds) -> float | None:
+    """:func:`~polishpath.simulate.fair.time_density_peak_db` of a path's machine samples, None when the
+    window is too small to read it (a figure of its own: the residual's figures do not depend on it)."""
+    from .fair import time_density_peak_db
+
+    try:
+        return time_density_peak_db(xy, time_s, spacing_mm, bounds)
+    except ParameterError:
+        return None
 
 
 def _crop_origin(origin, dx, bounds) -> tuple[int, int]:

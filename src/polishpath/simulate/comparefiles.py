@@ -74,6 +74,11 @@ def format_table(rows: list[dict[str, Any]], units: str = "nm^2 mm", *, params: 
             lines.append(f"lattice peak of {r['name']} read at {fs} 1/mm "
                          + (f"(its lattice, planar spacing h = {r['lattice_spacing_mm']:.4g} mm)" if basis == "lattice"
                             else f"({basis}, h = {r['lattice_spacing_mm']:.4g} mm)"))
+    td = [r for r in rows if r.get("time_density_peak_db") is not None]
+    if td:
+        lines.append("time-density peak (the machine samples' time density in the evaluation window, at 1/(2h), 1/h, "
+                     "sqrt(2)/h, 2/h of each path's spacing, dB; mean over the seeds): "
+                     + ", ".join(f"{r['name']} {r['time_density_peak_db']:.3g}" for r in td))
     if mode == "interference-free":
         lines.append("paper-style suppression: undefined in interference-free mode (flat start: nothing to suppress)")
     else:

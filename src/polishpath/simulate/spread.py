@@ -18,7 +18,8 @@ __all__ = ["FAIR_KEYS", "LOWER_IS_BETTER", "aggregate_rows", "rank", "spread"]
 FAIR_KEYS = ("residual_band_rms_nm", "lattice_peak_db", "pvn", "suppression_ratio")
 #: further per-row figures averaged over the seeds (no spread columns)
 MEAN_KEYS = ("residual_rms_nm", "residual_pv_nm", "before", "after", "band_rms_before_nm", "band_rms_after_nm",
-             "mean_depth_nm", "total_time_s", "machine_time_s", "effective_time_s", "time_off_grid_s", "n_points")
+             "mean_depth_nm", "total_time_s", "machine_time_s", "effective_time_s", "time_off_grid_s", "n_points",
+             "time_density_peak_db")
 #: which way is better for each ranked figure
 LOWER_IS_BETTER = {"residual_band_rms_nm": True, "lattice_peak_db": True, "pvn": True, "suppression_ratio": False}
 
