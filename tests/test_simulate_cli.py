@@ -150,3 +150,8 @@ def test_report_of_a_run_with_a_comparison_shows_both_figures(small_run, tmp_pat
     # the residual maps side by side and the PSDs with the lattice frequencies marked, and the fair table
     assert "Residual maps side by side" in html and "lattice frequencies marked" in html
     assert "Fair figures of each path" in html and "not distinguishable" in html
+    # each row's lattice peak read at its own frequencies, and the report says where (issue 26)
+    js = json.loads((run / "simulation" / "results.json").read_text())
+    assert "lattice peak read at (1/mm)" in html and "each path at its own lattice frequencies" in html
+    for row in js["rows"]:
+        assert ", ".join(f"{f:.3g}" for f in row["lattice_frequencies_per_mm"]) in html

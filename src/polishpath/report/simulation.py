@@ -24,8 +24,9 @@ __all__ = ["simulation_section"]
 #: shown first, full width, when present: the two figures of a comparison (issue 18, "seen")
 _LEAD_FIGURES = {"residuals.png": "Residual maps side by side (first seed; mean, tilt and power removed; one colour "
                                   "scale)",
-                 "psd.png": "Profile PSDs of the residuals (mean over the seeds), the path's lattice frequencies "
-                            "marked (1/spacing, its harmonics, 1/(2 spacing))"}
+                 "psd.png": "Profile PSDs of the residuals (mean over the seeds), each path's own lattice frequencies "
+                            "marked (those its lattice peak was read at: 1/h, its harmonics, 1/(2h) of its own "
+                            "planar spacing h)"}
 
 _FAIR = (("residual_band_rms_nm", "band RMS (nm)", 1.0), ("lattice_peak_db", "lattice peak (dB)", 1.0),
          ("pvn", "PVn", 1.0), ("suppression_ratio", "paper-style suppression (%)", 100.0))
@@ -41,10 +42,15 @@ def _num(v, f: float = 1.0) -> str:
 
 def _fair_table(rows: list[dict[str, Any]]) -> str:
     head = "".join(f"<th>{_esc(lab)}<br><span class='note'>mean [min, max]</span></th>" for _, lab, _ in _FAIR)
+    head += ("<th>lattice peak read at (1/mm)<br><span class='note'>each path's own frequencies</span></th>"
+             "<th>time-density peak (dB)<br><span class='note'>machine samples</span></th>")
     body = []
     for r in rows:
         cells = "".join(f"<td>{_num(r.get(k), f)} [{_num(r.get(k + '_min'), f)}, {_num(r.get(k + '_max'), f)}]</td>"
                         for k, _, f in _FAIR)
+        freqs = r.get("lattice_frequencies_per_mm")
+        cells += f"<td>{', '.join(_num(x) for x in freqs) if freqs else '—'}</td>"
+        cells += f"<td>{_num(r.get('time_density_peak_db'))}</td>"
         body.append(f"<tr><th>{_esc(r.get('name'))}</th>{cells}</tr>")
     return f"<table class='kv'><tr><th>path</th>{head}</tr>{''.join(body)}</table>"
 
@@ -64,7 +70,8 @@ def simulation_section(run: RunData, png_data_uri: Callable[[Any], str], kv_tabl
     if rows:
         out.append("<h3>Fair figures of each path's residual</h3>" + _fair_table(rows))
         for key, rk in (summary.get("rankings") or {}).items():
-            out.append(f"<p>Ranking by {_esc(key)} (best first; [a ~ b]: not distinguishable, their ranges "
+            own = ", each path at its own lattice frequencies" if key == "lattice_peak_db" else ""
+            out.append(f"<p>Ranking by {_esc(key)} (best first{own}; [a ~ b]: not distinguishable, their ranges "
                        f"overlap): <b>{_esc(rk.get('text'))}</b></p>")
     elif isinstance(summary, dict) and summary.get("fair"):
         f = summary["fair"]
