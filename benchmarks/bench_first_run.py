@@ -248,12 +248,12 @@ def bench_test(repo: Path, work: Path, site: Path, workers: str | None) -> dict:
     groups: dict[str, list[dict]] = collections.defaultdict(list)
     for p in probes:
         argv = " ".join(p["argv"])
-        if "triangles=700" in argv:
+        if "polishpath-warm-up-" in argv:
             groups["conftest warm-up job"].append(p)
-        elif "pytest" in argv and "-c" not in p["argv"][:1]:
-            groups["pytest controller"].append(p)
         elif p["argv"][:1] == ["-c"] or "execnet" in argv or "xdist" in argv:
             groups["xdist workers"].append(p)
+        elif "pytest" in argv:
+            groups["pytest controller"].append(p)
         else:
             groups["subprocesses of the tests"].append(p)
     res["processes"] = {g: {"n": len(ps), "cpu_s": sum(p["cpu_s"] for p in ps),

@@ -31,6 +31,9 @@ _CPU0 = time.process_time()
 _records: list[dict] = []
 _stages: list[dict] = []
 _done: set[str] = set()
+_out_dir: list[str] = []
+_last_dump = [time.perf_counter()]
+DUMP_EVERY_S = 5.0
 _stack: list[dict] = []
 _llvm_depth = [0, 0.0, 0.0]  # depth, cpu at the outermost acquire, wall at the outermost acquire
 
@@ -74,6 +77,10 @@ def _register() -> None:
                 _stack[-1]["_child_cpu"] += r["cpu_incl_s"]
                 _stack[-1]["_child_wall"] += r["wall_incl_s"]
             _records.append(r)
+            # xdist workers leave through os._exit and a timed-out job is killed: neither runs atexit, so the
+            # record is also written between compiles, at most every few seconds
+            if not _stack and _out_dir and time.perf_counter() - _last_dump[0] > DUMP_EVERY_S:
+                _dump(_out_dir[0])
 
     class Llvm(ev.Listener):  # LLVM's lock: optimisation passes and machine code of the kernel on top
         def on_start(self, event):
@@ -170,6 +177,7 @@ def _dump(out_dir: str) -> None:
         rss_mb = None
     doc = {"pid": os.getpid(), "argv": sys.argv, "wall_s": time.time() - _T0, "cpu_s": time.process_time() - _CPU0,
            "max_rss_mb": rss_mb, "stages": _stages, "compiles": _records, "dispatchers": _census()}
+    _last_dump[0] = time.perf_counter()
     path = os.path.join(out_dir, f"probe-{os.getpid()}.json")
     with open(path + ".part", "w") as fh:
         json.dump(doc, fh)
@@ -273,6 +281,7 @@ def install() -> None:
     out_dir = os.environ.get("POLISHPATH_PROBE_DIR")
     if not out_dir:
         return
+    _out_dir.append(out_dir)
     if "numba" in sys.modules:
         _done.add("numba")
         _register()
