@@ -52,3 +52,9 @@ FIGURING_TURN_HEADROOM = 0.5
 FIGURING_REGION_TOL = 0.004
 #: ... up to this many runs (docs/machine-output.md section 3)
 FIGURING_SCHEDULE_PASSES = 8
+
+#: local worker processes of a comparison's independent cases (pattern x seed): None = every core
+#: this process may use (polishpath.simulate.cases.available_cores); 1 = one after another in process
+DEFAULT_CASE_WORKERS = None
+#: seconds to wait for a Dask scheduler (--scheduler) to answer before giving up with exit 2
+SCHEDULER_TIMEOUT_S = 10.0

@@ -130,6 +130,10 @@ class SmoothingError(PolishPathError):
     """The smoothing curve could not be built or interpolated."""
 
 
+class SchedulerError(PolishPathError):
+    """The Dask scheduler a comparison was sent to (``--scheduler``) cannot be reached."""
+
+
 class ExportError(PolishPathError):
     """An output file could not be written."""
 

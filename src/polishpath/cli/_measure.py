@@ -11,6 +11,10 @@ from ..defaults import DEFAULT_CONTACT_RADIUS_MM, DEFAULT_FEED_MM_MIN, DEFAULT_P
 
 from ._common import COMPONENT_OPT, SCALE_OPT, UNITS_OPT, _guard, _print_json, _quiet, app, job_default
 
+#: where a comparison's independent cases run (polishpath.simulate.cases.CaseRunner)
+WORKERS_OPT = typer.Option(None, "--workers", "-j", help="SURFACE: local worker processes for the independent cases (pattern x seed); default every core, 1 = one after another in this process. The results are the same bytes either way.")
+SCHEDULER_OPT = typer.Option(None, "--scheduler", help="SURFACE: run the cases on a Dask cluster, the scheduler's address (e.g. tcp://host:8786; needs pip install 'polishpath[dask]', docs/simulation.md).")
+
 
 @app.command("simulate")
 def simulate_cmd(
@@ -40,6 +44,8 @@ def simulate_cmd(
     units: Optional[str] = UNITS_OPT,
     scale: Optional[float] = SCALE_OPT,
     component: str = COMPONENT_OPT,
+    workers: Optional[int] = WORKERS_OPT,
+    scheduler: Optional[str] = SCHEDULER_OPT,
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
@@ -67,10 +73,12 @@ def simulate_cmd(
     polishpath simulate out-run
     """
     from ..simulate import gaussian_tif, rotating_tool_tif
+    from ..simulate.cases import CaseRunner
 
     _quiet(quiet, json_out)
     run_mode = Path(target).is_dir()
     with _guard((output or Path(target) / "simulation") if run_mode else (output or Path("out-simulate"))):
+        runner = CaseRunner(workers, scheduler)  # a bad --workers / --scheduler: exit 2 before any work
         tif = (gaussian_tif(rate, fwhm_mm=fwhm) if fwhm is not None
                else rotating_tool_tif(rpm, radius, pressure, feed_mm_min=feed))
         if run_mode:
@@ -91,7 +99,7 @@ def simulate_cmd(
                                spacing_on=spacing_on, seed=0 if seed is None else seed, patch=patch,
                                dx=0.005 if dx is None else dx, depth=depth, time_model=time_model, method=method,
                                units=units, scale=scale, component=component, json_out=json_out, seeds=seeds,
-                               mode=mode, timing=timing, machine=prof, mechanisms=mech)
+                               mode=mode, timing=timing, machine=prof, mechanisms=mech, runner=runner)
 
 
 def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, dx, depth, seed, json_out) -> None:
@@ -132,7 +140,7 @@ def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, 
 
 def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, spacing_on, seed, patch, dx, depth,
                        time_model, method, units, scale, component, json_out, seeds, mode, timing, machine,
-                       mechanisms) -> None:
+                       mechanisms, runner) -> None:
     """``polishpath simulate SURFACE``: plan each pattern through pipeline.plan_on_surface, compare in the plane."""
     from .. import progress
     from ..errors import ParameterError
@@ -191,7 +199,8 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
             res = compare_planned(planned, seed=seed, seeds=seeds, mode=mode, timing=timing, machine=machine,
                                   mechanisms=mechanisms, dx_mm=dx, tif=tif, removal_depth_nm=depth,
                                   time_model=time_model, patch_bounds=bounds,
-                                  out_dir=stage / "simulation" if into_run else stage, plan_info=info)
+                                  out_dir=stage / "simulation" if into_run else stage, plan_info=info,
+                                  runner=runner)
         except PatchTooSmallError:
             raise PatchTooSmallError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
                                      "inside the patch, away from its edges by the tool's reach.",

@@ -21,6 +21,7 @@ from ..errors import ParameterError, PatchTooSmallError
 from ..psd.core import PAPER_BAND_PER_MM, PSD, band_average, band_rms, find_peaks, suppression_ratio
 from ..pathops import split_by_pieces
 from ..types import PlanarPath
+from .cases import Case, CaseResult, CaseRunner, Start, TimingCase, run_cases, run_timing
 from .motion import dwell_from_feed
 from .comparefiles import format_table, plot_psds, write_outputs
 from .machinetime import COMPARE_TIMINGS, machine_timed_path
@@ -279,6 +280,13 @@ def _time_density(xy, time_s, spacing_mm: float, bounds) -> float | None:
         return None
 
 
+def run_case(case: Case) -> CaseResult:
+    """Simulate one case of :func:`compare_planned` (a path under a seed) and judge it: a pure function of ``case``."""
+    o = compare_paths({case.name: case.path}, case.start.build(), case.tif, noise=case.noise,
+                      smoothing=case.smoothing, seed=case.seed, **case.options)
+    return CaseResult(row=o["rows"][0], psds=o["psds"], picture=o["residuals"][case.name], params=o["params"])
+
+
 def _crop_origin(origin, dx, bounds) -> tuple[int, int]:
     return (int(np.ceil((bounds[0] - origin[0]) / dx - 1e-9)), int(np.ceil((bounds[1] - origin[1]) / dx - 1e-9)))
 
@@ -349,7 +357,7 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                     workpiece: Workpiece | None = None, initial_rms_nm: float = 2.0, initial_exponent: float = 2.5,
                     removal_depth_nm: float = 200.0, band=PAPER_BAND_PER_MM, time_model: str | None = None,
                     dwell: str = "equal", patch_bounds=None, out_dir=None, removal_dx_mm: float | None = None,
-                    plan_info: dict | None = None) -> dict[str, Any]:
+                    plan_info: dict | None = None, runner: CaseRunner | None = None) -> dict[str, Any]:
     """The fair comparison of already planned paths over seeds (the Table 4 analogue, docs/simulation.md).
 
     Every path removes the same mean depth (``removal_depth_nm``, inside the
@@ -411,6 +419,10 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         As :func:`compare_paths`.
     plan_info : dict, optional
         Per-path planning figures to record in ``params["plans"]``.
+    runner : CaseRunner, optional
+        Where the independent cases (path x seed, each path's machine timing) run: every core by
+        default, one process, or a Dask cluster (:mod:`polishpath.simulate.cases`); the same result
+        whatever the spread.
 
     Returns
     -------
@@ -455,55 +467,64 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
     inset = _reach(tif_scaled) + h0
     eval_bounds = (xmin + inset, ymin + inset, xmax - inset, ymax - inset)
     tm_all = time_model or ("segments" if timing == "ideal" else "moves")
-    machine_cache: dict[int, tuple] = {}
-    per_seed, psd_lists, timing_info, seed_list = [], {}, {}, [seed + i for i in range(seeds)]
-    out1, first_rows = None, {}
+    seed_list = [seed + i for i in range(seeds)]
+    # the independent cases (path x seed; each distinct path's machine timing once), run by polishpath.simulate.cases
+    specs, wished = [], {}
     for i, s_i in enumerate(seed_list):
-        if interference_free:
-            wp = flat_workpiece((xmin, ymin, xmax, ymax), dx_mm)
-        elif workpiece is not None:
-            wp = workpiece
-        else:
-            wp = synthetic_workpiece((xmin, ymin, xmax, ymax), dx_mm, rms_nm=initial_rms_nm,
-                                     exponent=initial_exponent, band_per_mm=(0.2, 100.0), seed=s_i)
-        paths, wished = {}, {}
         for name, pp in planned.items():
             if i > 0 and interference_free and isinstance(pp, PlanarPath):
                 continue  # flat start, no noise, the same path: the seed changes nothing (tested), reuse seed 0
             p = _per_seed(pp, i, name)
             xy, pieces = np.asarray(p.uv), np.asarray(p.pieces)
             times = _dwell_times(xy, pieces, t0_point * (float(p.spacing) / h0) ** 2, dwell)
-            wished[name] = float(times.sum())
-            if tm_all == "moves":
-                key = id(p)
-                if key not in machine_cache:
-                    machine_cache[key] = machine_timed_path(xy, times, pieces, spacing_mm=float(p.spacing),
-                                                            machine=profile)
-                tp, info = machine_cache[key]
-                paths[name] = (tp.xy, tp.time_s, tp.pieces, "moves")
-                timing_info.setdefault(name, []).append(info)
-            else:
-                paths[name] = (xy, times, pieces, tm_all)
-        o = compare_paths(paths, wp, tif_used, noise=noise_used, smoothing=smooth_used, seed=s_i, band=band,
-                          spacing_mm=h0, eval_bounds=eval_bounds, time_model=tm_all, machine=legacy_machine,
-                          removal_dx_mm=removal_dx_mm, depth_nm=removal_depth_nm, path_spacings_mm=spacings,
-                          path_lattices=lattices) if paths else \
-            {"rows": [], "psds": {}}
-        for r in o["rows"]:  # total_time_s: the dwell times asked; the machine's own time beside it
-            r["machine_time_s"] = r["total_time_s"] if r["time_model"] == "moves" else None
-            r["total_time_s"] = wished[r["name"]]
-        got = {r["name"]: r for r in o["rows"]}
-        if i > 0:  # the reused rows and PSDs of the first seed
-            got = {name: got.get(name) or {**first_rows[name], "seconds": 0.0, "reused_seed": seed_list[0]}
-                   for name in planned}
-            o["psds"] = {k: o["psds"].get(k, psd_lists[k][0]) for k in psd_lists}
+            wished[(i, name)] = float(times.sum())
+            specs.append((i, s_i, name, p, xy, pieces, times))
+    timed, timing_info = {}, {}
+    if tm_all == "moves":
+        todo = {}
+        for _, _, _, p, xy, pieces, times in specs:
+            todo.setdefault(id(p), TimingCase(xy, times, pieces, float(p.spacing), profile))
+        timed = dict(zip(todo, run_cases(run_timing, list(todo.values()), runner)))
+    opts = dict(band=band, spacing_mm=h0, eval_bounds=eval_bounds, time_model=tm_all, machine=legacy_machine,
+                removal_dx_mm=removal_dx_mm, depth_nm=removal_depth_nm, path_spacings_mm=spacings,
+                path_lattices=lattices)
+    cases = []
+    for i, s_i, name, p, xy, pieces, times in specs:
+        if tm_all == "moves":
+            tp, info = timed[id(p)]
+            path = (tp.xy, tp.time_s, tp.pieces, "moves")
+            timing_info.setdefault(name, []).append(info)
         else:
+            path = (xy, times, pieces, tm_all)
+        start = (Start("flat", (xmin, ymin, xmax, ymax), dx_mm) if interference_free
+                 else Start("given", workpiece=workpiece) if workpiece is not None
+                 else Start("synthetic", (xmin, ymin, xmax, ymax), dx_mm, initial_rms_nm, initial_exponent,
+                            (0.2, 100.0), s_i))
+        cases.append(Case(name, s_i, path, start, tif_used, noise_used, smooth_used, opts))
+    done = {(i, name): r for (i, _, name, *_), r in zip(specs, run_cases(run_case, cases, runner))}
+    per_seed, psd_lists, first_rows = [], {}, {}
+    for i in range(seeds):
+        got, psds = {}, {}
+        for name in planned:
+            r = done.get((i, name))
+            if r is None:  # not run: the first seed's row (and below its PSD) reused
+                got[name] = {**first_rows[name], "seconds": 0.0, "reused_seed": seed_list[0]}
+                continue
+            row = dict(r.row)  # total_time_s: the dwell times asked; the machine's own time beside it
+            row["machine_time_s"] = row["total_time_s"] if row["time_model"] == "moves" else None
+            row["total_time_s"] = wished[(i, name)]
+            got[name] = row
+            psds.update({"before": r.psds["before"]} if "before" in r.psds and "before" not in psds else {})
+            psds[name] = r.psds[name]
+        if i == 0:
             first_rows = got
+        else:
+            psds = {k: psds.get(k, psd_lists[k][0]) for k in psd_lists}
         per_seed.append([got[name] for name in planned])
-        for k, v in o["psds"].items():
+        for k, v in psds.items():
             psd_lists.setdefault(k, []).append(v)
-        if out1 is None:
-            out1 = o
+    out1 = {"params": done[(0, next(iter(planned)))].params,
+            "residuals": {name: done[(0, name)].picture for name in planned}}
     rows = aggregate_rows(per_seed, seed_list)
     for r in rows:
         p0 = first[r["name"]]

@@ -95,7 +95,8 @@ def write_outputs(out: dict[str, Any], out_dir) -> None:
     d = Path(out_dir)
     d.mkdir(parents=True, exist_ok=True)
     (d / "table.txt").write_text(out["table"])
-    js = {"rows": out["rows"], "rankings": out.get("rankings", {}), "params": out["params"],
+    js = {"rows": _without_clocks(out["rows"]), "rankings": out.get("rankings", {}),
+          "params": _without_clocks(out["params"]),
           "psds": {k: {"freq_per_mm": v.freq.tolist(), "psd": v.psd.tolist(), "units": v.units}
                    for k, v in out["psds"].items()}}
     (d / "results.json").write_text(json.dumps(js, indent=1, default=_json_default))
@@ -110,6 +111,17 @@ def write_outputs(out: dict[str, Any], out_dir) -> None:
         plot_residuals(res, d / "residuals.png")
         for name, item in res.items():
             plot_residuals({name: item}, d / f"residual_{name}.png")
+
+
+def _without_clocks(o):
+    """``o`` without its wall-clock readings (keys ``seconds`` / ``*_seconds``): results.json is then the same
+    bytes however the cases were spread over processes or a cluster (the clocks stay in the returned dict)."""
+    if isinstance(o, dict):
+        return {k: _without_clocks(v) for k, v in o.items()
+                if not (isinstance(k, str) and (k == "seconds" or k.endswith("_seconds")))}
+    if isinstance(o, list):
+        return [_without_clocks(v) for v in o]
+    return o
 
 
 def _json_default(o):
