@@ -27,7 +27,9 @@ Byte identity is a promise only on one machine with the same versions: the same
 job twice (:func:`test_cli_plan.test_rerun_from_job_toml_is_bit_identical`), a
 streamed job against one held in memory
 (:func:`test_stream_job.test_a_streamed_job_writes_the_same_bytes`) and the
-writers fed in chunks against one go (``test_post.py``'s chunked writer test).
+writers fed in chunks against one go
+(:func:`test_post.test_chunked_samples_write_the_same_bytes`,
+:func:`test_post.test_chunked_flat_samples_write_the_same_bytes`).
 A change that is *meant* to alter the outputs regenerates the references with
 the script and says so in its commit message.
 """
