@@ -269,6 +269,13 @@ def test_the_job_runs_from_the_command_line_with_its_report(tmp_path):
     run = read_run(out)  # the run folder gives the same path back, with its cells and its set's name
     assert run.planar.dwell_points == "blue-noise" and run.planar.cell_area is not None
     assert np.array_equal(run.planar.uv, run.surface_path.planar.uv) and len(run.planar.cell_area) == n
+    # the report draws the steps' own directions and turns (the grid's 8 directions mean nothing here)
+    from polishpath.report.figures import fig_directions, fig_turn_angles
+
+    rose, turns = fig_directions(run), fig_turn_angles(run)
+    assert "16 sectors" in rose.axes[0].get_title() and "no lattice" in turns.axes[0].get_title()
+    shares = [p.get_height() for p in rose.axes[0].patches]
+    assert len(shares) == 16 and abs(sum(shares) - 1) < 1e-9 and max(shares) < 1.5 / 16
     bad = CliRunner().invoke(app, ["plan", "hemisphere:R=15,triangles=800", "--pattern", "raster",
                                    "--dwell-points", "blue-noise", "-o", str(tmp_path / "x"), "--no-report"])
     assert bad.exit_code == 2 and "square grid only" in bad.output and "Traceback" not in bad.output

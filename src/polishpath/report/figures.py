@@ -262,8 +262,43 @@ def fig_step_lengths(run: RunData):
     return fig
 
 
+def _continuous_steps(run: RunData):
+    """Planar steps (M, 2) mm within pieces of a path over a set without a lattice (blue noise), else None."""
+    if run.get("plan_cell_area") is None or run.get("plan_uv") is None:
+        return None
+    uv = run.get("plan_uv")
+    pieces = run.get("plan_pieces")
+    pieces = np.array([0, len(uv)]) if pieces is None else pieces
+    return np.concatenate([np.diff(uv[a:b], axis=0) for a, b in zip(pieces[:-1], pieces[1:])] + [np.zeros((0, 2))])
+
+
+def _fig_directions_continuous(d: np.ndarray):
+    """Rose of the step directions of a path without a lattice: 16 sectors of 22.5 degrees."""
+    if len(d) == 0:
+        return "not drawn: the path has no steps"
+    ang = np.arctan2(d[:, 1], d[:, 0])
+    share = np.bincount(np.round(ang / (np.pi / 8)).astype(int) % 16, minlength=16) / len(ang)
+    fig = _figure(4.8, 4.8)
+    ax = fig.add_subplot(projection="polar")
+    theta = np.arange(16) * np.pi / 8
+    ax.bar(theta, share, width=np.pi / 8 * 0.8, color="tab:blue", alpha=0.8, edgecolor="k")
+    ring = np.linspace(0, 2 * np.pi, 200)
+    ax.plot(ring, np.full_like(ring, 1 / 16), color="tab:red", lw=1, ls="--", label="uniform (1/16)")
+    ax.set_xticks(theta[::2])
+    ax.set_xticklabels([f"{n}\n{100 * x:.1f}%" for n, x in zip(DIRECTION_NAMES, share[::2])], fontsize=7)
+    ax.set_yticklabels([])
+    ax.set_title(f"Step directions (no lattice, 16 sectors): {share.min() * 16:.2f}-{share.max() * 16:.2f} x "
+                 "an even share", fontsize=9)
+    ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=7)
+    return fig
+
+
 def fig_directions(run: RunData):
-    """Rose of the 8 grid directions of the planar steps (share of steps per direction)."""
+    """Rose of the 8 grid directions of the planar steps (share of steps per direction); a path without a
+    lattice (blue noise): its steps' directions in 16 sectors."""
+    d = _continuous_steps(run)
+    if d is not None:
+        return _fig_directions_continuous(d)
     ij = run.get("plan_ij")
     if ij is None:
         return _missing("plan_ij")
@@ -291,7 +326,11 @@ def fig_directions(run: RunData):
 
 
 def fig_turn_angles(run: RunData):
-    """Histogram of the turn angles between consecutive grid steps (0 = straight on)."""
+    """Histogram of the turn angles between consecutive grid steps (0 = straight on); a path without a
+    lattice (blue noise): the continuous turn angles in bins of 22.5 degrees."""
+    d = _continuous_steps(run)
+    if d is not None:
+        return _fig_turns_continuous(d, run.get("plan_pieces"))
     ij = run.get("plan_ij")
     if ij is None:
         return _missing("plan_ij")
@@ -309,6 +348,27 @@ def fig_turn_angles(run: RunData):
     ax.set_title(f"Turn angles: {len(t):,} turns, {100 * np.mean(t != 0):.1f}% turning", fontsize=9)
     for b, c in zip(bins, counts):
         ax.annotate(f"{100 * c / len(t):.1f}", (b, 100 * c / len(t)), ha="center", va="bottom", fontsize=7)
+    return fig
+
+
+def _fig_turns_continuous(d: np.ndarray, pieces):
+    """Histogram of the signed turn angles (deg) between consecutive steps of a path without a lattice."""
+    a = np.arctan2(d[:, 1], d[:, 0])
+    turn = np.degrees((np.diff(a) + np.pi) % (2 * np.pi) - np.pi)
+    if pieces is not None and len(pieces) > 2:  # no turn across a lift: steps are concatenated piece by piece
+        ends = np.cumsum(np.diff(pieces) - 1)[:-1] - 1
+        turn = np.delete(turn, ends[(ends >= 0) & (ends < len(turn))])
+    if len(turn) == 0:
+        return "not drawn: the path has fewer than two steps"
+    fig = _figure(6.4, 3.8)
+    ax = fig.add_subplot()
+    ax.hist(turn, bins=np.linspace(-180, 180, 17), weights=np.full(len(turn), 100.0 / len(turn)),
+            color="tab:purple", alpha=0.85, edgecolor="k")
+    ax.set_xticks(np.arange(-180, 181, 45))
+    ax.set_xlabel("turn angle (deg, counter-clockwise positive)")
+    ax.set_ylabel("share of turns (%)")
+    ax.set_title(f"Turn angles (no lattice): {len(turn):,} turns, median |turn| {np.median(np.abs(turn)):.0f} deg",
+                 fontsize=9)
     return fig
 
 
