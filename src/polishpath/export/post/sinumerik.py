@@ -26,6 +26,13 @@ whenever the orientation changes and none where it does not. Feed: G93 on every
 path block, F = 1 / minutes of the block (rounded to ``feed_resolution``), so
 each block keeps its planned time whatever the tool offset and the orientation
 change; the approach and retract moves run at ``approach_feed_mm_min`` in G94.
+
+With ``orientation = "angles"`` and a machine profile with kinematics
+(``--machine xyzac-trt`` / ``xyzbc-trt``) the blocks carry the rotary axes'
+positions instead (A C or B C, the kinematics' continuous branch; modal words),
+interpolated linearly (``ORIAXES`` in place of ``ORIVECT``), TRAORI still on.
+The blocks are the post base's 5-axis segmenting (every dwell point a block
+end, the chord and orientation tolerances; :mod:`.oriented`).
 """
 
 from __future__ import annotations
