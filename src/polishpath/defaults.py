@@ -58,3 +58,8 @@ FIGURING_SCHEDULE_PASSES = 8
 DEFAULT_CASE_WORKERS = None
 #: seconds to wait for a Dask scheduler (--scheduler) to answer before giving up with exit 2
 SCHEDULER_TIMEOUT_S = 10.0
+#: a comparison of paths (polishpath simulate SURFACE, a sweep): seeds, the simulated patch's side (mm) and the
+#: mean depth every path removes (nm)
+DEFAULT_SEEDS = 5
+DEFAULT_PATCH_MM = 20.0
+DEFAULT_REMOVAL_DEPTH_NM = 200.0

@@ -1,4 +1,4 @@
-"""Commands that measure or reproduce: simulate, psd, paper."""
+"""Commands that measure or reproduce: simulate, sweep, psd, paper."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ from typing import Optional
 
 import typer
 
-from ..defaults import DEFAULT_CONTACT_RADIUS_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PEAK_RATE_NM_S, DEFAULT_PRESSURE, DEFAULT_RPM
+from ..defaults import (DEFAULT_CONTACT_RADIUS_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PATCH_MM, DEFAULT_PEAK_RATE_NM_S,
+                        DEFAULT_PRESSURE, DEFAULT_REMOVAL_DEPTH_NM, DEFAULT_RPM, DEFAULT_SEEDS)
 
 from ._common import COMPONENT_OPT, SCALE_OPT, UNITS_OPT, _guard, _print_json, _quiet, app, job_default
 
@@ -23,12 +24,12 @@ def simulate_cmd(
     spacing: float = typer.Option(job_default("spacing"), "--spacing", "-s", help="SURFACE: dwell-point spacing, mm, on the part as in `plan` (with --spacing-on plane: in the flattened plane). A run keeps its own."),
     spacing_on: str = typer.Option(job_default("spacing_on"), "--spacing-on", help="SURFACE: where --spacing holds, 'surface' (the part, as in `plan`) or 'plane' (the flattened plane)."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Base seed of the planner, the initial surface and the process noise (default 0; RUN_DIR: the run's seed)."),
-    seeds: int = typer.Option(5, "--seeds", help="SURFACE: run the random inputs (the pseudo-random path, the initial surface, the noise) over N seeds, seed i = base seed + i; figures are mean [min, max]."),
+    seeds: int = typer.Option(DEFAULT_SEEDS, "--seeds", help="SURFACE: run the random inputs (the pseudo-random path, the initial surface, the noise) over N seeds, seed i = base seed + i; figures are mean [min, max]."),
     mode: str = typer.Option("process", "--mode", help="SURFACE: 'process' (rough start, process noise, pad smoothing) or 'interference-free' (flat start, no noise: only the path's own marks)."),
     machine: Optional[str] = typer.Option(None, "--machine", help="SURFACE, machine timing: a machine profile (TOML file, see examples/machine-*.toml, or generic-3axis) whose axis limits slow the tool down at turns."),
     without: Optional[str] = typer.Option(None, "--without", help="SURFACE: switch mechanisms off, comma-separated: footprint (zero-feed footprint), edge (smooth pressure), smoothing, noise, slowdown (ideal timing)."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", help="Output folder (default: out-simulate; RUN_DIR: RUN_DIR/simulation). A run folder gets a simulation/ subfolder and its report is rebuilt."),
-    patch: float = typer.Option(20.0, "--patch", help="SURFACE: side of the simulated square patch at the region's centre, mm."),
+    patch: float = typer.Option(DEFAULT_PATCH_MM, "--patch", help="SURFACE: side of the simulated square patch at the region's centre, mm."),
     dx: Optional[float] = typer.Option(None, "--dx", help="Simulation pixel pitch, mm (SURFACE default 0.005: 5 um resolves 100 1/mm; RUN_DIR default: the finest of 5 um that keeps the whole part within 4 M pixels)."),
     plane: str = typer.Option("auto", "--plane", help="RUN_DIR: 'xy' (the part's projected x, y), 'unrolled' (the flattening's plane, depth corrected by its area ratio) or 'auto' (xy for a height field with slopes <= 30 deg, else unrolled)."),
     timing: str = typer.Option("machine", "--timing", help="'machine' (default: the constant-period samples the job's smoothing and feed schedule run, slow-downs included) or 'ideal' (each dwell point's time exactly as asked; RUN_DIR also calls it 'dwell')."),
@@ -38,7 +39,7 @@ def simulate_cmd(
     feed: float = typer.Option(DEFAULT_FEED_MM_MIN, "--feed", help="Nominal feed of the tool model, mm/min (RUN_DIR: the run's own feed schedule moves the tool)."),
     fwhm: Optional[float] = typer.Option(None, "--fwhm", help="Use a plain Gaussian tool influence function of this FWHM (mm) instead of the rotating tool."),
     rate: float = typer.Option(DEFAULT_PEAK_RATE_NM_S, "--rate", help="Peak removal rate of the Gaussian TIF (with --fwhm), nm/s."),
-    depth: float = typer.Option(200.0, "--depth", help="Mean depth to remove, nm (SURFACE: sets the dwell time per point; RUN_DIR: scales the tool's rate)."),
+    depth: float = typer.Option(DEFAULT_REMOVAL_DEPTH_NM, "--depth", help="Mean depth to remove, nm (SURFACE: sets the dwell time per point; RUN_DIR: scales the tool's rate)."),
     time_model: Optional[str] = typer.Option(None, "--time-model", help="SURFACE: override --timing with a time model: 'segments' (continuous motion), 'points' (stop and dwell) or 'machine' (NURBS at the interpolation period, the simulation's own)."),
     method: str = typer.Option(job_default("method"), "--method", "-m", help="SURFACE: flattening, mabf (default), abf, lscm, projection."),
     units: Optional[str] = UNITS_OPT,
@@ -145,7 +146,6 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
     from .. import progress
     from ..errors import ParameterError
     from ..flatten import boundary_region, flatten
-    from ..pipeline import plan_on_surface
     from ..errors import PatchTooSmallError
     from ..simulate import compare_planned
     from ..simulate.patterns import patch_bounds_at_centre
@@ -163,34 +163,9 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
     with progress.stage(f"flattening ({method})"):
         flat = flatten(s, method)
         region = boundary_region(flat)
-    from ..plan import RANDOM_PATTERNS
+    from ..pipeline.sweep import plan_patterns
 
-    from ..plan.points import DWELL_POINT_SETS
-
-    planned, info = {}, {}
-    for pat in pats:
-        # PATTERN[:SET]: the pattern on a dwell-point set (pseudorandom:blue-noise: the walk without a lattice)
-        base, _, dset = pat.partition(":")
-        dset = dset or "grid"
-        if dset not in DWELL_POINT_SETS:
-            raise ParameterError(f"--patterns: {pat!r} names the dwell-point set {dset!r}.",
-                                 f"Write PATTERN or PATTERN:SET with SET one of {', '.join(DWELL_POINT_SETS)} "
-                                 "(e.g. pseudorandom:blue-noise).")
-        n_plans = seeds if base in RANDOM_PATTERNS else 1  # a deterministic path is planned once
-        plans = []
-        for i in range(n_plans):
-            with progress.stage(f"planning {pat} ({spacing:g} mm on the "
-                                f"{'part' if spacing_on == 'surface' else 'plane'}"
-                                + (f", seed {seed + i})" if n_plans > 1 else ")")):
-                # margin=None: the job's own automatic margin, so `plan` at this spacing plans the same grid
-                plans.append(plan_on_surface(flat, region, spacing, pattern=base, seed=seed + i,
-                                             spacing_on=spacing_on, margin=None, dwell_points=dset))
-        sp = plans[0]
-        planned[pat] = [p.planar for p in plans] if base in RANDOM_PATTERNS else sp.planar
-        info[pat] = {"n_points": int(sp.planar.n_points), "planar_spacing_mm": float(sp.planar_spacing),
-                     "spacing_mm": float(spacing), "spacing_on": spacing_on, "random": base in RANDOM_PATTERNS,
-                     "dwell_points": dset,
-                     "seeds": [seed + i for i in range(n_plans)], "provenance": sp.planar.provenance.to_dict()}
+    planned, info = plan_patterns(flat, region, pats, spacing, seed=seed, seeds=seeds, spacing_on=spacing_on)
     sim_dir = output / "simulation" if into_run else output
     with staged as stage, progress.stage(f"simulating {len(pats)} paths x {seeds} seeds on a {patch:g} mm patch at "
                                          f"{dx * 1000:g} um ({mode}, {timing} timing)"):
@@ -219,6 +194,37 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
                "simulated in the flattened plane at each pattern's planar spacing ("
                + ", ".join(f"{k} {v['planar_spacing_mm']:.3g} mm" for k, v in info.items()) + ")")
     typer.echo(f"wrote {sim_dir}/ (table.txt, results.json, psd.png, residuals.png, residual maps)")
+
+
+@app.command("sweep")
+def sweep_cmd(
+    job: Path = typer.Argument(..., metavar="SWEEP.toml", help="The grid: parts, patterns, seeds, [[tool]] tables and the comparison's settings (docs/simulation.md, 'Sweeps')."),
+    output: Path = typer.Option(Path("out-sweep"), "-o", "--output", help="Output folder: sweep.csv and sweep.json."),
+    workers: Optional[int] = WORKERS_OPT,
+    scheduler: Optional[str] = SCHEDULER_OPT,
+    json_out: bool = typer.Option(False, "--json", help="Print the rows as JSON."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+):
+    """Run the fair comparison over a grid of parts x patterns x seeds x tools and write one table.
+
+    Every (part, tool) is one comparison as `polishpath simulate SURFACE` runs it, its
+    independent cases (pattern x seed) on every local core, or on a Dask cluster with
+    --scheduler tcp://host:8786; the table is the same bytes either way.
+
+    Example: polishpath sweep examples/sweep.toml -o out-sweep --workers 2
+    """
+    from ..pipeline.sweep import read_sweep, run_sweep
+    from ..simulate.cases import CaseRunner
+
+    _quiet(quiet, json_out)
+    with _guard(output):
+        runner = CaseRunner(workers, scheduler)
+        res = run_sweep(read_sweep(job), runner=runner, out_dir=output)
+        if json_out:
+            _print_json({"output": str(output), "rows": res["rows"], "params": res["params"]})
+            return
+        typer.echo(res["csv"], nl=False)
+        typer.echo(f"wrote {output}/ (sweep.csv, sweep.json)")
 
 
 def _simulation_staging(folder: Path, into_run: bool):
