@@ -63,3 +63,8 @@ SCHEDULER_TIMEOUT_S = 10.0
 DEFAULT_SEEDS = 5
 DEFAULT_PATCH_MM = 20.0
 DEFAULT_REMOVAL_DEPTH_NM = 200.0
+#: 5-axis (issue 27): most the tool axis along a merged G-code block may leave the planned axis, degrees; and the
+#: cone around a table's C axis where the inverse kinematics holds C (any C puts the axis within it), degrees:
+#: both half the 0.01 degree the rs274 check allows
+DEFAULT_ORIENTATION_TOL_DEG = 0.005
+DEFAULT_SINGULAR_CONE_DEG = 0.005

@@ -47,14 +47,12 @@ from typing import Any
 import numba
 import numpy as np
 
+from ..defaults import DEFAULT_SINGULAR_CONE_DEG
 from ..errors import ReachError, SpecError
 
 __all__ = ["Kinematics", "KINEMATICS_TYPES", "BUILTIN_KINEMATICS", "axes_from_angles", "kinematics_from_table"]
 
 KINEMATICS_TYPES = ("xyzac-trt", "xyzbc-trt")
-#: the cone around the C axis where C is held (the axis is within this of the pole whatever C), degrees:
-#: half the 0.01-degree orientation check of issue 27
-DEFAULT_SINGULAR_DEG = 0.005
 
 
 @dataclass(frozen=True)
@@ -91,7 +89,7 @@ class Kinematics:
     c_range_deg: tuple[float, float] | None = None
     max_velocity_deg_min: tuple[float, float] = (5400.0, 10800.0)
     max_acceleration_deg_s2: tuple[float, float] = (360.0, 720.0)
-    singular_deg: float = DEFAULT_SINGULAR_DEG
+    singular_deg: float = DEFAULT_SINGULAR_CONE_DEG
 
     def __post_init__(self):
         where = f"kinematics {self.type!r}"

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from ...defaults import DEFAULT_RPM
+from ...defaults import DEFAULT_ORIENTATION_TOL_DEG, DEFAULT_RPM
 from ...errors import ParameterError
 
 __all__ = ["PostSettings", "FEED_MODES", "SEGMENT_TOL_OF_SPACING", "SEGMENTINGS"]
@@ -128,7 +128,7 @@ class PostSettings:
     chord_tol_mm: float | None = None
     time_tol: float = 0.01
     feed_resolution: float = 0.001
-    orientation_tol_deg: float = 0.005
+    orientation_tol_deg: float = DEFAULT_ORIENTATION_TOL_DEG
     orientation_decimals: int = 4
     postamble: str = "M5 M9\nM30"
     program_number: int | None = None
