@@ -15,7 +15,7 @@ import pytest
 from test_bad_input import cli, refused
 
 PART = "xy-polynomial:radius=6,triangles=900"
-PLAN = ("--spacing", "0.8", "--seed", "3", "--no-report", "-q", "--tif", "gaussian:fwhm=3,peak_rate=20")
+PLAN = ("--spacing", "0.8", "--seed", "3", "--no-report", "-q", "--tif", "gaussian:fwhm=3,peak_rate=2.5")
 
 
 def _grid_map(path, z, dx_mm=0.1):
