@@ -62,8 +62,7 @@ def test_error_map_nan_pixels_are_accepted_with_their_count(tmp_path):
     z[np.hypot(X, Y) > 7.9] = np.nan
     n_nan = int(np.isnan(z).sum())
     m = _grid_map(tmp_path / "err.txt", z)
-    # --force: this 15 nm PV map under a 20 nm/s TIF has a floor of 20 nm, refused since issue 28 (item 1)
-    r = cli("plan", PART, *PLAN, "--error-map", m, "--force", "-o", tmp_path / "out")
+    r = cli("plan", PART, *PLAN, "--error-map", m, "-o", tmp_path / "out")
     assert r.returncode == 0, r.stderr
     assert f"err.txt: {n_nan} of {z.size} pixels have no data (NaN)" in r.stderr
     assert "kept as missing" in r.stderr
