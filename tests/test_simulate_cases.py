@@ -82,3 +82,13 @@ def test_bad_workers_or_unreachable_scheduler_exit_2(tmp_path, args, word):
     assert r.exit_code == 2, r.output
     assert word in r.output.lower() and "Traceback" not in r.output
     assert not (tmp_path / "x").exists()
+
+
+def test_an_error_in_a_worker_process_exits_2_with_its_message(tmp_path):
+    # the evaluation window does not fit a 3 mm patch: raised inside each case, in the worker processes
+    r = runner.invoke(app, ["simulate", DOME, "--patterns", "raster,pseudorandom", "--spacing", "1", "--patch", "3",
+                            "--dx", "0.05", "--fwhm", "1", "--seeds", "2", "--workers", "2", "-q",
+                            "-o", str(tmp_path / "x")])
+    assert r.exit_code == 2, r.output
+    assert "--patch" in r.output and "Traceback" not in r.output
+    assert not (tmp_path / "x").exists()
