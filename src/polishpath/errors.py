@@ -168,9 +168,45 @@ def require(module: str, feature: str, extra: str | None = None, package: str | 
     Optional dependencies fail only when the feature that needs them is used
     (the trimesh way), never at import time of polishpath.
     """
-    import importlib
-
     try:
-        return importlib.import_module(module)
+        return _import_whole(module)
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise MissingDependencyError(package or module, feature, extra) from exc
+
+
+def optional(module: str):
+    """The optional module ``module`` when it is installed, else None (imported whole, :func:`_import_whole`)."""
+    try:
+        return _import_whole(module)
+    except ImportError:
+        return None
+
+
+def _import_whole(module: str):
+    """``importlib.import_module(module)`` with SIGINT and SIGTERM held until the import has finished.
+
+    A Ctrl-C or SIGTERM is turned into an exception by the command line's handlers, wherever the
+    interpreter is. Raised inside a compiled extension's module set-up (libigl's nanobind types),
+    it leaves the extension registered in C but absent from ``sys.modules``; the next import then
+    aborts the whole process (nanobind: "refusing to add duplicate key", exit -6) instead of
+    ending with the interrupt's message. So the handlers are swapped for ones that only note the
+    signal, and a noted signal is raised again as soon as the import is done. (Blocking the
+    signals with ``pthread_sigmask`` is not enough: a process-directed signal then goes to another
+    thread, OpenBLAS's or numba's, and Python still runs the handler in the main thread.)
+    """
+    import importlib
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return importlib.import_module(module)
+    noted: list[int] = []
+    held = (signal.SIGINT, signal.SIGTERM)
+    before = {s: signal.signal(s, lambda signum, frame: noted.append(signum)) for s in held}
+    try:
+        return importlib.import_module(module)
+    finally:
+        for s, h in before.items():
+            signal.signal(s, h)
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)

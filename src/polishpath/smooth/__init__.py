@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import progress
 from ..defaults import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS, MAX_FEED_FACTOR
-from ..errors import ParameterError, SmoothingError
+from ..errors import ParameterError, SmoothingError, optional
 from ..pathops import step_mask
 from ..types import NurbsCurve, Provenance, SampleSchedule, SurfacePath, ToolPath
 from .interpolate import (
@@ -173,17 +173,15 @@ def point_mesh_distance(points: np.ndarray, surface) -> np.ndarray:
     """
     v = np.ascontiguousarray(surface.vertices, dtype=np.float64)
     f = np.ascontiguousarray(surface.faces, dtype=np.int64)
-    try:
-        import igl
-
+    igl = optional("igl")
+    if igl is not None:
         d2, _, _ = igl.point_mesh_squared_distance(np.ascontiguousarray(points, dtype=np.float64), v, f)
         return np.sqrt(np.maximum(d2, 0.0))
-    except ImportError:
-        import trimesh
+    import trimesh
 
-        mesh = trimesh.Trimesh(v, f, process=False)
-        _, dist, _ = trimesh.proximity.closest_point(mesh, points)
-        return np.asarray(dist)
+    mesh = trimesh.Trimesh(v, f, process=False)
+    _, dist, _ = trimesh.proximity.closest_point(mesh, points)
+    return np.asarray(dist)
 
 
 def curve_deviation(

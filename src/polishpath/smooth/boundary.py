@@ -21,22 +21,21 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..errors import optional
 from ..meshops import boundary_edges
 
 
 def _closest_points(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance (M,) mm and closest point (M, 3) on the mesh of each point (libigl's AABB tree, else trimesh)."""
-    try:
-        import igl
-
+    igl = optional("igl")
+    if igl is not None:
         d2, _, c = igl.point_mesh_squared_distance(points, vertices, faces)
         return np.sqrt(np.maximum(d2, 0.0)), np.asarray(c)
-    except ImportError:
-        import trimesh
+    import trimesh
 
-        mesh = trimesh.Trimesh(vertices, faces, process=False)
-        c, dist, _ = trimesh.proximity.closest_point(mesh, points)
-        return np.asarray(dist), np.asarray(c)
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    c, dist, _ = trimesh.proximity.closest_point(mesh, points)
+    return np.asarray(dist), np.asarray(c)
 
 
 def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
