@@ -168,6 +168,17 @@ def _comment(text: str) -> str:
     return f"({clean})"
 
 
+def provenance_header(post_name: str, tool_path: ToolPath, header: dict | None) -> list[tuple[str, Any]]:
+    """The header's first entries, every post's: generator, post, the job's ``header`` and the smoothing
+    and mapping provenance (``smooth.`` / ``map.`` keys), as (key, value) pairs."""
+    hdr: list[tuple[str, Any]] = [("generator", f"polishpath {__version__}"), ("post", post_name)]
+    hdr += _flatten_header(header or {})
+    hdr += _flatten_header(tool_path.provenance.to_dict(), "smooth.")
+    if tool_path.surface_path.provenance is not None:
+        hdr += _flatten_header(tool_path.surface_path.provenance.to_dict(), "map.")
+    return hdr
+
+
 def _flatten_header(d: dict, prefix: str = "") -> list[tuple[str, Any]]:
     out = []
     for k, v in d.items():
@@ -373,11 +384,7 @@ class GcodePost(PostProcessor):
                      tool_radius: float, safe: float, n_pieces: int, ctx: dict) -> list[str]:
         sp = tool_path.surface_path
         s = self.settings
-        hdr: list[tuple[str, Any]] = [("generator", f"polishpath {__version__}"), ("post", self.name)]
-        hdr += _flatten_header(header or {})
-        hdr += _flatten_header(tool_path.provenance.to_dict(), "smooth.")
-        if sp.provenance is not None:
-            hdr += _flatten_header(sp.provenance.to_dict(), "map.")
+        hdr = provenance_header(self.name, tool_path, header)
         hdr += [("mode", mode), ("feed_mode", feed_mode), ("dwell_points", len(sp.xyz)), ("pieces", n_pieces),
                 ("period_ms", tool_path.period_ms), ("tool_radius_mm", float(tool_radius)), ("safe_z_mm", safe),
                 ("coordinate_resolution_mm", 10.0 ** -s.decimals),

@@ -31,13 +31,12 @@ from typing import Any, ClassVar, Iterable
 
 import numpy as np
 
-from ..._version import __version__
 from ...errors import ExportError, ParameterError
 from ...types import Surface, ToolPath
 from ..chunks import SampleChunk, axes_at, checked_chunks, dwell_offsets, sample_chunks
 from ..files import _bytes_out
 from ..textfmt import format_fixed
-from .base import GcodePost, PostSettings, _flatten_header, offset_along_normals
+from .base import GcodePost, PostSettings, offset_along_normals, provenance_header
 from .gouge import gouge_check
 from .rotary import RotaryMotion
 
@@ -185,11 +184,7 @@ class OrientedPost(GcodePost):
                ctx: dict) -> list[str]:
         sp = tool_path.surface_path
         s = self.settings
-        hdr: list[tuple[str, Any]] = [("generator", f"polishpath {__version__}"), ("post", self.name)]
-        hdr += _flatten_header(header or {})
-        hdr += _flatten_header(tool_path.provenance.to_dict(), "smooth.")
-        if sp.provenance is not None:
-            hdr += _flatten_header(sp.provenance.to_dict(), "map.")
+        hdr = provenance_header(self.name, tool_path, header)
         hdr += [("tool_axis", sp.tool_axis), ("dwell_points", len(sp.xyz)), ("pieces", n_pieces),
                 ("tool_radius_mm", float(tool_radius)), ("safe_z_mm", safe),
                 ("coordinate_resolution_mm", 10.0 ** -s.decimals), ("segment_chord_tol_mm", ctx["segment_tol_mm"]),
