@@ -28,6 +28,22 @@ class PolishPathError(Exception):
         self.hint = hint
         super().__init__(message if not hint else f"{message} {hint}")
 
+    def __reduce__(self):
+        # An error raised in a worker process (simulate's process pool, a Dask worker) is pickled back to
+        # the parent. Exception's own reduce calls ``cls(*args)`` with the joined text, which fails for a
+        # subclass whose constructor takes other arguments (MissingDependencyError: TypeError in the parent
+        # instead of the install hint); this rebuilds the same object, every attribute included, without
+        # calling the constructor.
+        return (_rebuild_error, (type(self), self.args, self.__dict__))
+
+
+def _rebuild_error(cls: type, args: tuple, state: dict) -> PolishPathError:
+    """The error ``cls`` with ``args`` and attributes ``state`` (the unpickling half of ``__reduce__``)."""
+    err = cls.__new__(cls)
+    err.args = args
+    err.__dict__.update(state)
+    return err
+
 
 # --- input: files and specs ---------------------------------------------------------
 
