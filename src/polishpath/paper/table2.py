@@ -60,7 +60,8 @@ def table2(doc: Document, figs: FigureSet, st: Settings, res: dict, seed: int) -
           f"full hemisphere, while its average projection step (0.853 mm) matches ours. Where the steps differ: a "
           f"planar grid mapped back is stretched where the flattening shrinks lengths, so the plain MABF grid has "
           f"steps up to ~2 s; `plan_on_surface` (docs/machine-output.md, 'step reduction factor') shrinks "
-          f"the planar spacing until no step on the part exceeds √2 s, at the price of more dwell points. The "
+          f"the planar spacing until no axial step on the part exceeds s and no diagonal step √2 s (neighbouring "
+          f"dwell points and passes at most the spacing apart on the part), at the price of more dwell points. The "
           f"paper's proposed remedy (a factor slightly below 1) is that same idea.")
     res["table2"] = data
     # Fig. 9

@@ -121,7 +121,8 @@ def measure_surface(surface, spacing: float, *, seed: int, patterns=PATTERNS, sp
         Any of ``unicursal``, ``maze``, ``fractal``, ``hilbert``, ``projection``, ``mabf``.
     spacing_on : {"surface", "plane"}
         ``"surface"``: the planar spacing is found for the pseudo-random path so
-        that no step on the part exceeds sqrt(2) x ``spacing``, and every MABF
+        that no axial step on the part exceeds ``spacing`` and no diagonal
+        sqrt(2) x ``spacing``, and every MABF
         pattern plans at it; ``"plane"``: every pattern plans the plain planar
         grid at ``spacing`` (the paper's set-up; MABF keeps the part's area on
         average, not everywhere). ``projection`` always plans at ``spacing``.
