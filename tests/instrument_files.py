@@ -54,12 +54,12 @@ def write_metropro_dat(path, z_nm, *, lateral_res_m=1e-4, wavelength_m=632.8e-9,
 
 
 def write_zygo_ascii(path, z_nm, *, lateral_res_m=1e-4, wavelength_m=632.8e-9, scale=0.5, obliquity=1.0,
-                     phase_res=1, intensity=True, per_line=10) -> Path:
+                     phase_res=1, sign=0, intensity=True, per_line=10) -> Path:
     """A Zygo ASCII data file, format 2: 14 header lines, '#', intensity block, '#', phase block, '#'."""
     z = np.asarray(z_nm, dtype=np.float64)
     h, w = z.shape
     iw, ih, nb = (w, h, 1) if intensity else (0, 0, 0)
-    c = counts_for(z, wavelength_m, scale, obliquity, phase_res).ravel()
+    c = counts_for(-z if sign == 1 else z, wavelength_m, scale, obliquity, phase_res).ravel()
     lines = [
         "Zygo ASCII Data File - Format 2",
         '1 8 3 3 "Wed Jan 30 10:35:03 2013"',
@@ -71,7 +71,9 @@ def write_zygo_ascii(path, z_nm, *, lateral_res_m=1e-4, wavelength_m=632.8e-9, s
         f"1 {scale} {wavelength_m:.6e} 0 {obliquity} 0 {lateral_res_m:.6e} 719529",
         f'{w + 2} {h + 2} 4 0 651365 0 "Sm Aperture"',
         "0 0 1 3 1293 0 1 0.1 0 0",
-        f"17 50 {phase_res} 0 1 0 0 0 0",
+        # PhaseRes PhaseAvgs MinimumAreaSize DisconAction DisconFilter ConnectionOrder RemoveTiltBias DataSign
+        # CodeVType: the minimum area 7 as in a real NewView file, so a reader taking the wrong field fails
+        f"{phase_res} 0 7 1 60 0 0 {sign} 0",
         '3 ""',
         "0 0",
         '"1X"',

@@ -19,6 +19,8 @@ from polishpath.psd import read_measurement
 
 DATA = Path(__file__).resolve().parent / "data" / "measurements"
 REAL_DATX = DATA / "zygo_gpi_monolithic.datx"
+REAL_DAT_XZ = DATA / "zygo_newview_metropro.dat.xz"  # a whole MetroPro file, xz-compressed, bytes unchanged
+REAL_ASC = DATA / "zygo_newview_ascii_crop.asc"  # a 160 x 120 window of a MetroPro ASCII export
 
 
 def _map(h=24, w=31, nan_corner=True):
@@ -58,6 +60,59 @@ def test_real_zygo_datx_as_an_error_map_has_its_rows_flipped(recwarn):
     np.testing.assert_array_equal(e.z_nm, m.z_nm[::-1])
     assert "flipped" in e.params["rows"]
     assert e.dx_mm == pytest.approx(1.0, rel=1e-6)
+
+
+def _real_dat(tmp_path) -> Path:
+    import lzma
+
+    p = tmp_path / "metropro-1.dat"
+    p.write_bytes(lzma.decompress(REAL_DAT_XZ.read_bytes()))
+    return p
+
+
+def test_real_metropro_dat_agrees_with_an_independent_reader(tmp_path):
+    """A Zygo NewView file written by MetroPro 8.1.5 (640 x 480, 20X Mirau, 570 nm): the figures another open
+    reader (SurfaceTopography) asserts for the same file: 640 x 480 pixels over 0.70288 x 0.52716 mm, RMS height
+    75.288222 nm, 3.911386 nm after removing a quadratic surface, 75.24071 nm as the mean of the rows' variances."""
+    m = read_measurement(_real_dat(tmp_path))
+    assert m.params["format"] == "metropro-dat" and m.params["header_format"] == 1
+    assert m.params["phase_res"] == 1 and m.params["wavelength_nm"] == pytest.approx(570.0, rel=1e-6)
+    assert m.z_nm.shape == (480, 640) and m.n_nan == 0
+    assert m.dx_mm * 640 == pytest.approx(0.7028812979115173, rel=1e-6)
+    assert m.dy_mm * 480 == pytest.approx(0.527160973433638, rel=1e-6)
+    z = m.z_nm
+    assert np.std(z) == pytest.approx(75.288222047, rel=1e-6)  # 32768 counts per wave (phase_res 1), not 4096
+    i, j = (a.ravel() for a in np.mgrid[0:480, 0:640].astype(float))
+    a = np.stack([np.ones_like(i), i, j, i * i, j * j, i * j], axis=1)
+    resid = z.ravel() - a @ np.linalg.lstsq(a, z.ravel(), rcond=None)[0]
+    assert np.sqrt(np.mean(resid ** 2)) == pytest.approx(3.911386124, rel=1e-6)
+    # the rows are lines along x (the 640-pixel axis): the transposed map would give 4.50 nm here
+    assert np.sqrt(np.mean(np.var(z, axis=1))) == pytest.approx(75.24071, rel=1e-6)
+
+
+def test_real_metropro_dat_bytes_cut_short_are_refused(tmp_path):
+    p = _real_dat(tmp_path)
+    p.write_bytes(p.read_bytes()[:-4 * 640])  # the last phase row lost
+    with pytest.raises(MeasurementFileError, match="Is the file complete"):
+        read_measurement(p)
+
+
+def test_real_zygo_ascii_header_and_counts(tmp_path):
+    """A window of a real MetroPro ASCII export (NewView, 20X Mirau): its line 11 reads '1 0 7 1 60 0 0 0 0', so
+    the phase resolution is its *first* number (1: 32768 counts per wave); the counts parsed here on their own."""
+    text = REAL_ASC.read_text(encoding="latin-1")
+    head = text.splitlines()[:14]
+    assert head[10].split() == ["1", "0", "7", "1", "60", "0", "0", "0", "0"]
+    blocks = text.split("\n#\n")
+    counts = np.array(blocks[2].split(), dtype=np.int64).reshape(120, 160)
+    invalid = counts >= 2147483640
+    m = read_measurement(REAL_ASC)
+    assert m.params["format"] == "zygo-ascii" and m.params["phase_res"] == 1
+    assert m.z_nm.shape == (120, 160) and m.n_nan == int(invalid.sum()) == 2
+    assert m.dx_mm == pytest.approx(2.75914e-4, rel=1e-6)  # the camera resolution on line 8, m -> mm
+    expect = counts[~invalid] * 0.5 * 570e-9 * 1.0 / 32768 * 1e9  # scale x wavelength x obliquity / R, nm
+    np.testing.assert_allclose(m.z_nm[~invalid], expect, rtol=1e-12)
+    assert 50 < np.nanstd(m.z_nm) < 2000  # a milled surface at 0.28 um pixels: neither fringes nor metres
 
 
 # --- MetroPro binary .dat ----------------------------------------------------------------------------------------
@@ -111,6 +166,13 @@ def test_zygo_ascii_heights_pixels_and_no_data(tmp_path, intensity):
     assert m.params["format"] == "zygo-ascii"
     assert m.z_nm.shape == z.shape and m.dx_mm == pytest.approx(0.05, rel=1e-6) and m.n_nan == 12
     np.testing.assert_allclose(m.z_nm, z, atol=0.01, equal_nan=True)
+
+
+def test_zygo_ascii_inverted_data_sign(tmp_path):
+    """DataSign (line 11's eighth number) 1: the heights are the counts' opposite, as in the binary file."""
+    z = _map(nan_corner=False)
+    m = read_measurement(write_zygo_ascii(tmp_path / "m.asc", z, sign=1))
+    np.testing.assert_allclose(m.z_nm, z, atol=0.01)
 
 
 def test_zygo_ascii_with_missing_values_is_refused(tmp_path):

@@ -30,7 +30,12 @@ Zygo ASCII (``.asc``: MetroPro's "Zygo ASCII Data File - Format 2")
     y, width, height, buckets, range), line 4 the phase window (origin x, y,
     width, height), line 8 ``source, intf_scale_factor, wavelength_in,
     numeric_aperture, obliquity_factor, magnification, lateral_res,
-    time_stamp``, line 11's third number ``phase_res``. The data follow as
+    time_stamp``, line 11 ``phase_res, phase_avgs, minimum_area_size,
+    discon_action, discon_filter, connection_order, remove_tilt_bias,
+    data_sign, codev_type`` (``phase_res`` its *first* number and
+    ``data_sign`` its eighth, as the header's field list in the MetroPro
+    Reference Guide and the open readers have them; a real NewView file's
+    line 11 reads ``1 0 7 1 60 0 0 0 0``). The data follow as
     whitespace-separated integer counts: the intensity block, ``#``, the
     phase block (row after row), ``#``; the counts and "no data" as in ``.dat``.
 4D Technology HDF5 (``.h5`` from 4Sight / 4D InSight)
@@ -183,7 +188,8 @@ def read_zygo_ascii(path, dx_mm: float | None = None) -> tuple[np.ndarray, float
         iw, ih, nb = (int(v) for v in _ascii_numbers(head[2])[2:5])
         pw, ph = (int(v) for v in _ascii_numbers(head[3])[2:4])
         src, scale, wl, _na, obliquity, _mag, res_m = _ascii_numbers(head[7])[:7]
-        phase_res = int(_ascii_numbers(head[10])[2])
+        line11 = _ascii_numbers(head[10])
+        phase_res, sign = int(line11[0]), int(line11[7])
     except (StopIteration, ValueError, IndexError):
         raise MeasurementFileError(f"{p.name}: its header is not the Zygo ASCII layout (14 lines, then '#').",
                                    "Export it again from MetroPro (File > Save Data As > ASCII).") from None
@@ -200,6 +206,8 @@ def read_zygo_ascii(path, dx_mm: float | None = None) -> tuple[np.ndarray, float
             f"{p.name}: the header promises {pw} x {ph} phase values and {iw * ih * nb} intensity values; the file "
             f"holds {phase.size} and {intensity.size}.", "Is the file complete? Export it again.")
     z = _heights_from_counts(phase.reshape(ph, pw), scale, obliquity, wl, phase_res, p.name)
+    if sign == 1:
+        z = -z
     dx, srcx = _lateral(res_m, dx_mm, p.name)
     params: dict[str, Any] = {"format": "zygo-ascii", "units_assumed": [], "wavelength_nm": float(wl) * 1e9,
                               "phase_res": phase_res, "dx_source": srcx, "n_nan": int(np.isnan(z).sum()),
