@@ -559,9 +559,11 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final, 
     kinds = np.empty(n, np.int64)
     ij = np.zeros((n, 2))
     centres = np.full((n, 2), np.nan)
-    span = -1
+    # int64 from the start, not literals: a callee typed while its argument is still Literal[int] is compiled
+    # once more for it (docs/performance.md: _farthest compiled 4 times, 15 s of a fresh checkout's compile)
+    span = np.int64(-1)
     ne = 0
-    s = 0
+    s = np.int64(0)
     while s < n - 1:
         e = s + 1
         while e < n - 1 and not B[e, MUST]:
@@ -582,8 +584,8 @@ def segment_intervals(F, B, curve, radius, tol, e_s, res, arcs, horizon, final, 
         # the block's end: the dwell point e if one block reaches it, else bisection between the always-kept
         # s+1 and the first misfit (fewer fits than galloping up from s+2, blocks being a third to a half of
         # a dwell interval); reaching e, the block is extended through it towards e2 the same way
-        lo, kind, gi, gj, span = _farthest(F, B, s, s + 1, LINE, 0.0, 0.0, e, -1, breaks, coeffs, dp, dn, radius,
-                                           span, tol, e_s, res, arcs)
+        lo, kind, gi, gj, span = _farthest(F, B, s, s + 1, np.int64(LINE), 0.0, 0.0, e, np.int64(-1), breaks, coeffs,
+                                           dp, dn, radius, span, tol, e_s, res, arcs)
         if lo == e and e2 > 0:
             lo, kind, gi, gj, span = _farthest(F, B, s, e, kind, gi, gj, e2, e, breaks, coeffs, dp, dn, radius,
                                                span, tol, e_s, res, arcs)
