@@ -249,3 +249,49 @@ def test_psd_command_reads_a_metropro_dat(tmp_path):
     r = cli("psd", p)
     assert r.returncode == 0, r.stderr
     assert "m.dat: map (64, 64) at 100 um, 0 missing pixels" in r.stdout
+
+
+# --- what `polishpath psd` prints: the band RMS is the band's, and says where the height is ------------------------
+
+
+def _sine_dat(tmp_path, dx_m=1e-4, period_px=16):
+    """A 64 x 64 MetroPro map holding a 10 nm RMS sine along x (period 16 pixels)."""
+    j = np.mgrid[0:64, 0:64][1]
+    z = 10.0 * np.sqrt(2.0) * np.sin(2 * np.pi * j / period_px)
+    return write_metropro_dat(tmp_path / "sine.dat", z, lateral_res_m=dx_m)
+
+
+def test_psd_command_on_a_sine_below_the_band_says_so(tmp_path):
+    """At 0.1 mm pixels the sine's wavelength is 1.6 mm (0.625 1/mm), outside the default band 1-100 1/mm: the
+    band RMS is a few thousandths of a nm, which is right for the band (the quantised heights' harmonics); the
+    output says how much of the variance the band holds, where the strongest component is, and which --band
+    measures it. With that band the same file gives the sine's 10 nm."""
+    from test_bad_input import cli
+
+    p = _sine_dat(tmp_path)
+    r = cli("psd", p)
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    rms = float(out.split("  RMS ")[1].split(" nm")[0])
+    band = float(out.split("band RMS ")[1].split(" nm")[0])
+    assert 9.0 < rms < 10.5 and band < 0.05
+    assert "of which the data resolves 1-5 1/mm" in out  # Nyquist of 0.1 mm pixels: 5 1/mm
+    assert "strongest component: 0.625 1/mm (wavelength 1.6 mm), below the band" in out
+    assert "--band 0.208,1.88" in out and "not a reading error" in out
+    r2 = cli("psd", p, "--band", "0.208,1.88")
+    assert r2.returncode == 0, r2.stderr
+    band2 = float(r2.stdout.split("band RMS ")[1].split(" nm")[0])
+    assert band2 == pytest.approx(10.0, rel=0.05)
+    assert "note:" not in r2.stdout and "inside the band" in r2.stdout
+
+
+def test_band_share_and_strongest_frequency():
+    from polishpath.psd import psd_1d
+    from polishpath.psd.analyze import band_variance_fraction, strongest_frequency
+
+    x = np.arange(1024) * 0.01  # mm
+    z = 10 * np.sin(2 * np.pi * 0.5 * x) + 1 * np.sin(2 * np.pi * 20 * x)  # nm: 0.5 and 20 1/mm, powers 100 : 1
+    p = psd_1d(z, 0.01, window="hann", detrend="none")
+    assert strongest_frequency(p) == pytest.approx(0.5, abs=p.df)
+    assert band_variance_fraction(p, (1, 100)) == pytest.approx(1 / 101, rel=0.05)
+    assert band_variance_fraction(p, (0.01, 100)) == pytest.approx(1.0)

@@ -116,15 +116,73 @@ def analyze_file(file, band: tuple[float, float] = PAPER_BAND_PER_MM, *, spacing
     m = read_measurement(file, **read_kwargs)
     p = measurement_psd(m, window=window, detrend=detrend, nan=nan)
     check_plausible_rms(float(np.sqrt(p.params["variance_nm2"])), m)
+    brms = band_rms(p, *band)
+    peaks = find_peaks(p, spacing_mm, band=band)
+    for pk in peaks:  # what each peak holds, so a tall but negligible one reads as such
+        pk["rms_nm"] = float(np.sqrt(pk["psd"] * p.df))
     out: dict[str, Any] = {
         "file": str(file), "kind": m.kind, "shape": list(np.shape(m.z_nm)), "dx_mm": m.dx_mm, "n_nan": m.n_nan,
         "band_per_mm": list(band), "band_covered_per_mm": list(band_coverage(p, *band)),
-        "band_rms_nm": band_rms(p, *band), "band_average": band_average(p, *band), "units": p.units,
-        "rms_nm": float(np.sqrt(p.params["variance_nm2"])), "peaks": find_peaks(p, spacing_mm, band=band),
+        "band_rms_nm": brms, "band_average": band_average(p, *band), "units": p.units,
+        "rms_nm": float(np.sqrt(p.params["variance_nm2"])), "peaks": peaks,
+        "resolved_per_mm": [float(p.freq[0]), float(p.freq[-1])],
+        "band_variance_fraction": band_variance_fraction(p, band),
+        "strongest_per_mm": strongest_frequency(p),
         "psd": p, "measurement_params": dict(m.params), "psd_params": dict(p.params),
     }
     if m.kind == "map":
         out["psd_radial"] = radial_psd(m.z_nm, m.dx_mm, m.dy_mm, window=window, detrend=detrend)
+    return out
+
+
+def band_variance_fraction(p: PSD, band: tuple[float, float]) -> float:
+    """Share of the PSD's variance (all its frequencies) that lies in ``band`` (1/mm), 0..1."""
+    w = p.psd * (2 * np.pi * p.freq if p.kind == "2d-radial" else 1.0)
+    total = float(np.sum(w))
+    if not total > 0:
+        return float("nan")
+    m = (p.freq >= band[0]) & (p.freq <= band[1])
+    return float(np.sum(w[m]) / total)
+
+
+def strongest_frequency(p: PSD) -> float:
+    """The frequency (1/mm) of the bin holding the most variance, whatever the band."""
+    w = p.psd * (2 * np.pi * p.freq if p.kind == "2d-radial" else 1.0)
+    return float(p.freq[int(np.argmax(w))])
+
+
+def summary_lines(r: dict[str, Any], band: tuple[float, float]) -> list[str]:
+    """What ``polishpath psd`` prints for one file's :func:`analyze_file` result (units in every figure).
+
+    The total RMS and the band RMS are different quantities: a surface whose height lies at wavelengths
+    outside the band (a figure error, a ripple longer than 1 mm for the default 1-100 1/mm) has a small band
+    RMS however large its RMS is. The lines say what part of the band the sampling resolves, what share of
+    the variance the band holds and, when the band holds little of it, where the strongest component is and
+    which ``--band`` would take it in.
+    """
+    lo, hi = band
+    flo, fhi = r["resolved_per_mm"]
+    clo, chi = r["band_covered_per_mm"]
+    frac = r["band_variance_fraction"]
+    out = [f"  RMS {r['rms_nm']:.4g} nm over all the wavelengths the data resolves ({1 / fhi:.3g}-{1 / flo:.3g} mm; "
+           f"each profile's tilt removed)"]
+    covered = "" if (clo <= lo and chi >= hi) else f", of which the data resolves {clo:.3g}-{chi:.3g} 1/mm"
+    share = f"{100 * frac:.3g} % of the variance" if np.isfinite(frac) else "no variance"
+    out.append(f"  band {lo:g}-{hi:g} 1/mm (wavelengths {1 / hi:.3g}-{1 / lo:.3g} mm{covered}): band RMS "
+               f"{r['band_rms_nm']:.4g} nm ({share}), average PSD {r['band_average']:.4g} {r['units']}")
+    fs = r["strongest_per_mm"]
+    where = "below" if fs < lo else "above" if fs > hi else "inside"
+    out.append(f"  strongest component: {fs:.4g} 1/mm (wavelength {1 / fs:.4g} mm), {where} the band")
+    if np.isfinite(frac) and frac < 0.5:
+        sugg_lo, sugg_hi = max(flo, fs / 3), min(fhi, fs * 3)
+        out.append("  note: the band holds little of this surface's height, so its band RMS is small however large "
+                   "the RMS is (it is right for the band, not a reading error); to measure the strongest component "
+                   f"pass e.g. --band {sugg_lo:.3g},{sugg_hi:.3g}")
+    # peaks holding under 1 % of the band RMS (e.g. the harmonics of the heights' quantisation) are left out here
+    for pk in [pk for pk in r.get("peaks", []) if pk["rms_nm"] >= 0.01 * r["band_rms_nm"]][:8]:
+        out.append(f"  peak at {pk['freq_per_mm']:.4g} 1/mm (wavelength {pk['wavelength_mm']:.4g} mm): "
+                   f"{pk['rms_nm']:.3g} nm RMS, {pk['excess_decades']:.2f} decades above the local PSD"
+                   + (f", {pk['label']}" if pk.get("label") else ""))
     return out
 
 
