@@ -349,10 +349,10 @@ def _print_psd(res: dict, file: Path, after: Optional[Path], lo: float, hi: floa
             typer.echo(f"  units assumed: {', '.join(mp['units_assumed'])}")
         if mp.get("resampled"):
             typer.echo(f"  {mp['resampled']}")
-        typer.echo(f"  RMS {r['rms_nm']:.4g} nm; band {lo:g}-{hi:g} 1/mm: RMS {r['band_rms_nm']:.4g} nm, "
-                   f"average PSD {r['band_average']:.4g} {r['units']}")
-        for pk in r.get("peaks", [])[:8]:
-            typer.echo("  peak " + ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in pk.items()))
+        from ..psd.analyze import summary_lines
+
+        for line in summary_lines(r, (lo, hi)):  # total RMS, band RMS and its share, where the height lies
+            typer.echo(line)
 
     if after is None:
         one(res, str(file))
