@@ -444,7 +444,8 @@ def finish_component(nodes, start, comp, walk_id, g, o, w, stats):  # pragma: no
     cap = queue.shape[0]
     order = nodes.copy()
     np.random.shuffle(order)
-    qh, qt = 0, 0
+    # int64, not literal zeros: numba compiles a callee once more for each Literal[int] argument
+    qh, qt = np.int64(0), np.int64(0)
     for u in order:
         if vis[u] == 0:
             inq[u] = 1
@@ -475,12 +476,12 @@ def finish_component(nodes, start, comp, walk_id, g, o, w, stats):  # pragma: no
     for s in order:
         if vis[s] == 1:
             continue
-        k = walk(s, walk_id, comp, 0, 0, n, g, o, w, stats)
+        k = walk(s, walk_id, comp, np.int64(0), np.int64(0), n, g, o, w, stats)
         walk_id += 1
         stats[ST_SUBWALK] += 1
         link_path(P, k, nxt, prv)
         for i in range(k):
-            qt = _push_unvisited_nbrs(P[i], adj, vis, off, inq, queue, qt, cap)
+            qt = _push_unvisited_nbrs(np.int64(P[i]), adj, vis, off, inq, queue, qt, cap)
         qh, qt = _splice_loop(adj, vis, diag, nxt, prv, off, W, inq, queue, qh, qt, cap, stats)
         # joining before the start is allowed: one continuous path beats starting exactly there
         _try_join(s, -1, adj, vis, diag, nxt, prv, off, W, mark, P, stats)
