@@ -291,25 +291,49 @@ def smooth_surface(height_nm: np.ndarray, dx_mm: float, mean_depth_nm: float, sm
     return np.ascontiguousarray(out, dtype=np.float32)
 
 
-def _splat_matrix(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float):
-    """The bilinear splat of :func:`rasterize_time` as a sparse (Ny * Nx, M) matrix: ``S @ t`` = time per pixel, s.
+def _splat_matrix(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float, weights=None, columns=None,
+                  n_columns: int | None = None):
+    """The bilinear splat of :func:`rasterize_time` as a sparse (Ny * Nx, n_columns) matrix.
 
-    Built once per path, it splats the many weighted time vectors of a rotating tool's kernel terms in one
-    sparse product each (corners off the grid are dropped, as :func:`rasterize_time` does).
+    Without ``weights`` / ``columns``: (Ny * Nx, M), ``S @ t`` = time per pixel, s. With them, sample m's
+    corner weights are multiplied by ``weights[m]`` and land in column ``columns[m]`` (duplicates summed),
+    so ``S @ c`` splats ``weights * c[columns]``: many samples sharing one coefficient (the sub-samples of
+    one move) cost one column. Corners off the grid are dropped, as :func:`rasterize_time` does.
     """
     from scipy.sparse import csr_matrix
 
     ny, nx = shape
     i0, j0, fx, fy = _bilinear_cells(xy, origin_mm, dx_mm)
     rows, cols, vals = [], [], []
-    m = np.arange(len(xy))
+    m = np.arange(len(xy)) if columns is None else np.asarray(columns)
+    wt = 1.0 if weights is None else np.asarray(weights, dtype=np.float64)
     for di, dj, w in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
         ii, jj = i0 + di, j0 + dj
         ok = (ii >= 0) & (ii < nx) & (jj >= 0) & (jj < ny)
         rows.append(jj[ok] * nx + ii[ok])
         cols.append(m[ok])
-        vals.append(w[ok])
-    return csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(ny * nx, len(xy)))
+        vals.append((w * wt)[ok])
+    ncol = len(xy) if n_columns is None else int(n_columns)
+    return csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(ny * nx, ncol))
+
+
+def _touches_grid(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float) -> np.ndarray:
+    """(M,) bool: the samples whose bilinear splat puts some time on the grid (the others add nothing to it)."""
+    ny, nx = shape
+    i0, j0, _, _ = _bilinear_cells(xy, origin_mm, dx_mm)
+    return (i0 >= -1) & (i0 < nx) & (j0 >= -1) & (j0 < ny)
+
+
+def _runs(*keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Runs of consecutive samples equal in every key: ``(run index (M,), first sample of each run (G,))``."""
+    n = len(keys[0])
+    if n == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    new = np.zeros(n, dtype=bool)
+    new[0] = True
+    for k in keys:
+        new[1:] |= k[1:] != k[:-1]
+    return np.cumsum(new) - 1, np.flatnonzero(new)
 
 
 class _PaddedRfft2:
@@ -384,18 +408,26 @@ def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: R
     s_lo, s_hi = (float(sp.min()), float(sp.max())) if sp.size else (0.0, 0.0)
     bt = t if basis_times is None else basis_times
     basis = tif.basis(dxc, (s_lo, s_hi), tol=tol, sample_speeds=sp, sample_times=bt[on])
-    C = basis.coefficients(speed, heading)
+    # Only the samples that reach the coarse grid (which covers the fine one) remove anything here: on a
+    # patch of a large part most of the path is elsewhere. The basis above was fitted to the whole path.
+    keep = _touches_grid(xy, (nyc, nxc), origin_mm, dxc)
+    xy, t, speed, heading = xy[keep], t[keep], speed[keep], heading[keep]
+    # A sample's coefficients depend only on its speed and heading, the same along each move (a run of
+    # samples): the coefficients are computed once per run, the splat sums each run's time per pixel.
+    run, first = _runs(speed, heading)
+    C = basis.coefficients(speed[first], heading[first])  # (n_terms, runs)
     kmax = basis.kernels[0].shape[0]
     sy = sfft.next_fast_len(nyc + kmax - 1, real=True)
     sx = sfft.next_fast_len(nxc + kmax - 1, real=True)
-    S = _splat_matrix(xy, (nyc, nxc), origin_mm, dxc)  # once for all terms
+    S = _splat_matrix(xy, (nyc, nxc), origin_mm, dxc, weights=t, columns=run, n_columns=len(first))
+    del xy, t, speed, heading, run, first
     acc = np.zeros((sy, sx // 2 + 1), dtype=np.complex64)
     fft_d = _PaddedRfft2(nyc, nxc, sy, sx)
     fft_k = _PaddedRfft2(kmax, kmax, sy, sx)
     chunk = 8  # terms splatted per sparse product (bounds the dense block to 8 coarse grids)
     for j0 in range(0, len(basis.kernels), chunk):
         j1 = min(len(basis.kernels), j0 + chunk)
-        D = (S @ (C[j0:j1] * t[None, :]).T).astype(np.float32)  # (nyc * nxc, j1 - j0), s per coarse pixel
+        D = (S @ C[j0:j1].T).astype(np.float32)  # (nyc * nxc, j1 - j0), s per coarse pixel
         for j in range(j0, j1):
             term = fft_d(D[:, j - j0].reshape(nyc, nxc))
             term *= fft_k(basis.kernels[j])
@@ -476,7 +508,10 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
     shape = workpiece.shape
     rot_info = None
     if isinstance(tif, RotatingToolTIF):
-        total_density, lost = rasterize_time(xy, t, shape, workpiece.origin_mm, dx)
+        near = _touches_grid(xy, shape, workpiece.origin_mm, dx)  # the rest puts no time on the grid
+        total_density, lost = rasterize_time(xy[near], t[near], shape, workpiece.origin_mm, dx)
+        lost += float(t[~near].sum())
+        del near
         on_grid = total_density.sum() * dx * dx
         # expected volume: exact volume rate at each sample's speed (table over the speeds present)
         on = t > 0
