@@ -52,7 +52,7 @@ def big_path():
 
 
 def test_the_dwell_point_sets_are_named():
-    assert DWELL_POINT_SETS == {"grid": True, "blue-noise": False}
+    assert DWELL_POINT_SETS == {"grid": True, "blue-noise": False, "relaxed": False}
 
 
 @pytest.mark.parametrize("name", ["ring_path", "big_path"])
