@@ -215,9 +215,9 @@ class JobConfig:
     pattern: str = option("pseudorandom", "--pattern", "-p",
                           help="pseudorandom (default), raster, spiral, rectangular, or a peer: unicursal, maze, "
                                "fractal, hilbert.")
-    dwell_points: str = option("grid", "--dwell-points", choices=("grid", "blue-noise"),
-                               help="Dwell points: 'grid' (default: the paper's square grid) or 'blue-noise' "
-                                    "(no lattice; pseudorandom pattern only).")
+    dwell_points: str = option("grid", "--dwell-points", choices=("grid", "blue-noise", "relaxed"),
+                               help="Dwell points: 'grid' (default: the paper's square grid), 'blue-noise' or "
+                                    "'relaxed' (no lattice; pseudorandom pattern only).")
     spacing: float = option(DEFAULT_SPACING_MM, "--spacing", "-s",
                             help=f"Dwell-point spacing on the part, mm (default {DEFAULT_SPACING_MM:g}).",
                             positive=True)

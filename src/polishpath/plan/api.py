@@ -16,7 +16,7 @@ from . import baselines
 from .checks import check_index, check_options, check_point, check_region, check_seed
 from .bluewalk import GRAPH_WALK_OPTIONS, graph_walk_order
 from .dwell import DwellGrid, check_grid, dwell_grid
-from .points import DWELL_POINT_SETS, blue_noise_points
+from .points import DWELL_POINT_SETS, blue_noise_points, relaxed_points
 from .pseudorandom import PSEUDORANDOM_OPTIONS, pseudorandom_order
 
 
@@ -221,7 +221,7 @@ def plan(
     start_pt = region.centroid if start is None else check_point(start, "The start point")
     if dwell_points != "grid":
         return _plan_blue_noise(region, spacing, pattern, seed=seed, start_pt=start_pt, margin=margin,
-                                origin=origin, rotation=rotation, options=options)
+                                origin=origin, rotation=rotation, options=options, dwell_points=dwell_points)
     t0 = time.perf_counter()
     grid = dwell_grid(region, spacing, margin=margin, origin=origin, rotation=rotation)
     t1 = time.perf_counter()
@@ -274,7 +274,7 @@ def plan(
 
 
 def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int, start_pt: np.ndarray, margin: float,
-                     origin, rotation: float, options: dict) -> PlanarPath:
+                     origin, rotation: float, options: dict, dwell_points: str = "blue-noise") -> PlanarPath:
     """:func:`plan` on a blue-noise set (no lattice): the pseudo-random walk along its neighbour graph.
 
     The path's ``ij`` holds each point's number in the set and 0 (there are no grid indices),
@@ -289,7 +289,8 @@ def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int,
                              "Leave origin and rotation out with dwell_points='blue-noise'.")
     check_options("pseudorandom", options, GRAPH_WALK_OPTIONS)
     t0 = time.perf_counter()
-    pts = blue_noise_points(region, spacing, seed=seed, margin=margin)
+    build = relaxed_points if dwell_points == "relaxed" else blue_noise_points
+    pts = build(region, spacing, seed=seed, margin=margin)
     t1 = time.perf_counter()
     start_idx = int(np.argmin(np.hypot(pts.uv[:, 0] - start_pt[0], pts.uv[:, 1] - start_pt[1])))
     order, pieces, stats = graph_walk_order(pts, seed=seed, start=start_idx, **options)
@@ -302,7 +303,7 @@ def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int,
     params = {
         "spacing": float(spacing),
         "margin": float(margin),
-        "dwell_points": "blue-noise",
+        "dwell_points": dwell_points,
         "start": [float(x) for x in start_pt],
         **{k: (v if isinstance(v, (int, float, str, bool)) else repr(v)) for k, v in options.items()},
     }
@@ -311,4 +312,4 @@ def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int,
         uv=pts.uv[order], ij=ij, spacing=float(spacing), origin=np.zeros(2), rotation=0.0, pattern=pattern,
         pieces=pieces, unreached=pts.uv[~visited], n_inside=pts.n,
         provenance=Provenance("plan", pattern, params, seed, __version__), stats=stats,
-        lattice=None, dwell_points_only=True, dwell_points="blue-noise", cell_area=pts.cell_area[order])
+        lattice=None, dwell_points_only=True, dwell_points=dwell_points, cell_area=pts.cell_area[order])
