@@ -132,11 +132,15 @@ def read_metropro_dat(path, dx_mm: float | None = None) -> tuple[np.ndarray, flo
     """
     p = Path(path)
     raw = p.read_bytes()
-    if len(raw) < 834 or struct.unpack_from(">I", raw, 0)[0] not in ZYGO_MAGIC:
+    if len(raw) < 4 or struct.unpack_from(">I", raw, 0)[0] not in ZYGO_MAGIC:
         raise MeasurementFileError(f"{p.name} is not a Zygo MetroPro .dat file (no MetroPro header).",
                                    "A .dat of plain numbers is read as text only when it does not start like one.")
+    if len(raw) < 834:
+        raise MeasurementFileError(f"{p.name} starts like a Zygo MetroPro .dat but has {len(raw)} bytes, fewer than "
+                                   "its header alone (834).", "Is the file complete? Copy it again from the instrument.")
     fmt = ZYGO_MAGIC[struct.unpack_from(">I", raw, 0)[0]]
     hsize = struct.unpack_from(">i", raw, 6)[0]
+    iw, ih, nb = struct.unpack_from(">HHH", raw, 52)
     ac_bytes = struct.unpack_from(">i", raw, 60)[0]
     w, h = struct.unpack_from(">HH", raw, 68)
     cn_bytes = struct.unpack_from(">i", raw, 72)[0]
@@ -148,8 +152,13 @@ def read_metropro_dat(path, dx_mm: float | None = None) -> tuple[np.ndarray, flo
     if w * h == 0:
         raise MeasurementFileError(f"{p.name} holds no phase (height) data, only intensity.",
                                    "Save the measurement with its phase data in MetroPro.")
+    if ac_bytes != 2 * iw * ih * nb or hsize not in (834, 4096):
+        raise MeasurementFileError(
+            f"{p.name}: its MetroPro header is inconsistent (header size {hsize} bytes, format {fmt}; intensity "
+            f"{iw} x {ih} x {nb} frames but {ac_bytes} bytes).",
+            "The file is damaged or not a MetroPro .dat: save the measurement again from MetroPro or Mx.")
     start = hsize + ac_bytes
-    if cn_bytes != 4 * w * h or start + cn_bytes > len(raw) or hsize < 834:
+    if cn_bytes != 4 * w * h or start + cn_bytes > len(raw):
         raise MeasurementFileError(
             f"{p.name}: the header promises {w} x {h} phase values ({cn_bytes} bytes) after {start} bytes, "
             f"but the file has {len(raw)} bytes.", "Is the file complete? Copy it again from the instrument.")
@@ -181,7 +190,8 @@ def read_zygo_ascii(path, dx_mm: float | None = None) -> tuple[np.ndarray, float
     text = p.read_text(encoding="latin-1")
     lines = text.splitlines()
     if not lines or not lines[0].strip().startswith("Zygo ASCII Data File"):
-        raise MeasurementFileError(f"{p.name} is not a Zygo ASCII data file (its first line does not say so).")
+        raise MeasurementFileError(f"{p.name} is not a Zygo ASCII data file (its first line does not say so).",
+                                   "Export it from MetroPro as 'Zygo ASCII Data File', or give it as plain text.")
     try:
         hash_at = next(i for i, ln in enumerate(lines) if ln.strip() == "#")
         head = lines[:hash_at]
@@ -195,7 +205,8 @@ def read_zygo_ascii(path, dx_mm: float | None = None) -> tuple[np.ndarray, float
                                    "Export it again from MetroPro (File > Save Data As > ASCII).") from None
     blocks = "\n".join(lines[hash_at + 1:]).split("#")
     if len(blocks) < 2:
-        raise MeasurementFileError(f"{p.name}: the data blocks do not end with '#'.", "Is the file complete?")
+        raise MeasurementFileError(f"{p.name}: the data blocks do not end with '#' (the intensity block, '#', the "
+                                   "phase block, '#').", "Is the file complete? Export it again from MetroPro.")
     try:
         intensity, phase = np.array(blocks[0].split(), dtype=np.int64), np.array(blocks[1].split(), dtype=np.int64)
     except ValueError:
@@ -223,12 +234,18 @@ def _text_attr(v) -> str:
 
 def _value_unit_mm(text: str, what: str, name: str, to: dict[str, float]) -> float:
     m = re.match(r"^\s*([-+0-9.eE]+)\s*([A-Za-zµμ]*)\s*$", text)
+    fix = "Save the file again from 4Sight, or give the value (--dx for the pixel size)."
     if not m:
-        raise MeasurementFileError(f"{name}: cannot read the {what} {text!r}.")
+        raise MeasurementFileError(f"{name}: cannot read the {what} {text!r} (a number and a unit expected).", fix)
     unit = (m.group(2) or "").lower().replace("μ", "µ")
     if unit not in to:
-        raise MeasurementFileError(f"{name}: unknown unit {m.group(2)!r} in the {what} {text!r}.")
-    return float(m.group(1)) * to[unit]
+        raise MeasurementFileError(f"{name}: unknown unit {m.group(2)!r} in the {what} {text!r} "
+                                   f"(known: {', '.join(sorted(u for u in to if u))}).", fix)
+    try:
+        return float(m.group(1)) * to[unit]
+    except ValueError:
+        raise MeasurementFileError(f"{name}: cannot read the {what} {text!r} (a number and a unit expected).",
+                                   fix) from None
 
 
 def read_4d_h5(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
@@ -244,7 +261,9 @@ def read_4d_h5(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dic
     try:
         f = h5py.File(p, "r")
     except OSError as exc:
-        raise MeasurementFileError(f"{p.name} is not a readable HDF5 file: {exc}.") from None
+        raise MeasurementFileError(f"{p.name} is not a readable HDF5 file ({exc}).",
+                                   "Is the file complete? Save it again from 4Sight as .h5, or give the map as "
+                                   "text.") from None
     with f:
         if "measurement0/genraw/data" not in f:
             raise MeasurementFileError(f"{p.name} has no measurement0/genraw/data (the 4D surface).",
@@ -260,8 +279,9 @@ def read_4d_h5(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dic
         if not (np.isfinite(wl_nm) and wl_nm > 0):
             raise MeasurementFileError(f"{p.name}: the wavelength is {wl_nm!r} nm.", "Save the file again from 4Sight.")
         xpix = _text_attr(g.attrs["xpix"]) if "xpix" in g.attrs else None
-    if z.ndim != 2:
-        raise MeasurementFileError(f"{p.name}: the 4D surface is not a 2D map (shape {z.shape}).")
+    if z.ndim != 2 or min(z.shape) < 2:
+        raise MeasurementFileError(f"{p.name}: the 4D surface is not a 2D map (shape {z.shape}).",
+                                   "Save one surface measurement per file from 4Sight.")
     invalid = ~(np.abs(z) < FOURD_INVALID)  # the sentinel, and NaN as written
     n_inf = int(np.isinf(z).sum())
     z = z * wl_nm

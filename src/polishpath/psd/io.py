@@ -139,7 +139,7 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
             progress.warn(f"{path.name} states its own units ({m.params['format']}: heights from the wavelength, "
                           "pixel size from the header): the unit options are not used for it.")
     else:
-        text = path.read_text(encoding="utf-8", errors="replace")
+        text = _text_of(path)
         m = _read_text(text, str(path), csv_like=path.suffix.lower() == ".csv", lateral_unit=lateral_unit,
                        height_unit=height_unit, dx_mm=dx_mm, dy_mm=dy_mm)
     check_heights(m.z_nm, path.name)
@@ -148,6 +148,30 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
         _check_spacing(m.dy_mm, "the pixel height", path.name)
     _say_what_was_assumed(m, path)
     return m
+
+
+def _text_of(path: Path) -> str:
+    """The file's text: UTF-16 when it starts with its byte-order mark, else UTF-8, else Windows-1252 (the
+    encodings Windows instrument software exports in).
+
+    A file with NUL bytes at its start and no UTF-16 mark is no text layout: it is refused naming the formats
+    read (a Taylor Hobson binary ``.prf`` / ``.mod``, a MetroPro ``.dat`` under another name ...) instead of
+    a confusing parse error.
+    """
+    raw = path.read_bytes()
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return raw.decode("utf-16", errors="replace")
+    if b"\0" in raw[:4096]:
+        raise MeasurementFileError(
+            f"{path.name} is a binary file in a format polishpath does not read (read: Zygo .datx, MetroPro .dat, "
+            "Zygo ASCII .asc, 4D .h5, and text or CSV profiles and maps; a Taylor Hobson binary .prf / .mod is "
+            "not read: its layout is not published).",
+            "Export the measurement as text from the instrument's software (Form Talysurf: the profile as x z "
+            "text), or give a binary Zygo / 4D file its own extension (.dat, .datx, .h5).")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:  # Windows software writes its code page: 'Z (µm)' with µ as the byte 0xB5
+        return raw.decode("cp1252", errors="replace")
 
 
 def _check_spacing(v: float | None, what: str, where: str) -> None:
@@ -271,7 +295,9 @@ def _read_text(text, source, *, csv_like, lateral_unit, height_unit, dx_mm, dy_m
         x, z = x[order], z[order]
         d = np.diff(x)
         if len(x) < 8 or (d <= 0).any():
-            raise MeasurementFileError(f"{source!r}: a profile needs >= 8 samples with distinct x.")
+            raise MeasurementFileError(f"{source!r}: a profile needs >= 8 samples with distinct x, got {len(x)} "
+                                       f"samples{' with repeated x' if len(x) >= 8 else ''}.",
+                                       "Give the whole profile as x z lines, one sample a line, x increasing.")
         step = float(np.median(d))
         if np.max(np.abs(d - step)) > 1e-3 * step:
             xs = x[0] + step * np.arange(int(round((x[-1] - x[0]) / step)) + 1)
@@ -362,7 +388,9 @@ def _read_datx(path: Path, dx_mm: float | None, lateral_unit: str | None = None,
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
-        raise MeasurementFileError(f"{str(path)!r} is not a readable HDF5 (.datx) file: {exc}.") from exc
+        raise MeasurementFileError(f"{str(path)!r} is not a readable HDF5 (.datx) file ({exc}).",
+                                   "Is the file complete? Save it again from Mx as .datx, or export the map as "
+                                   "text.") from None
     with f:
         if "Data" not in f or "Surface" not in f["Data"] or not len(f["Data"]["Surface"].keys()):
             raise MeasurementFileError(f"{str(path)!r} has no /Data/Surface dataset.",
@@ -384,6 +412,9 @@ def _read_datx(path: Path, dx_mm: float | None, lateral_unit: str | None = None,
             params["units_assumed"].append("height unit nm")
         params["z_unit_in_file"] = unit
         if unit.lower() == "fringes":
+            if "Wavelength" not in attrs:
+                raise MeasurementFileError(f"{str(path)!r}: heights are in fringes but the file has no Wavelength.",
+                                           "Pass --height-unit with the unit of the heights, or export in nm.")
             wl_m = float(_attr_scalar(attrs["Wavelength"]))
             if not (np.isfinite(wl_m) and wl_m > 0):
                 raise MeasurementFileError(f"{str(path)!r}: heights are in fringes but the wavelength is {wl_m!r}.",
@@ -416,7 +447,7 @@ def _read_datx(path: Path, dx_mm: float | None, lateral_unit: str | None = None,
                         break
         if dx is None or not (np.isfinite(dx) and dx > 0):
             raise MeasurementFileError(f"{str(path)!r} does not state its lateral resolution.",
-                                       "Pass dx_mm (pixel size in mm).")
+                                       "Pass the pixel size (dx_mm / --dx / [error_map] dx_mm) in mm.")
     params.update({"dx_source": src, "dataset": f"/Data/Surface/{key}", "n_nan": int(np.isnan(z).sum()),
                    "note": "rows kept in file order (Zygo stores y downwards); irrelevant for PSDs"})
     if z.ndim == 1 or 1 in z.shape:
