@@ -56,6 +56,11 @@ FIGURING_SCHEDULE_PASSES = 8
 #: local worker processes of a comparison's independent cases (pattern x seed): None = every core
 #: this process may use (polishpath.simulate.cases.available_cores); 1 = one after another in process
 DEFAULT_CASE_WORKERS = None
+#: a case's peak memory, bytes = base + per pixel of its patch x pixels + per fine path sample x samples
+#: (polishpath.simulate.cases.Case.peak_bytes; measured with benchmarks/bench_simulate_speed.py)
+CASE_MEMORY_MODEL = (400e6, 40.0, 120.0)
+#: the share of the available memory the default worker count leaves to the calling process and the machine
+CASE_MEMORY_RESERVE = 0.25
 #: seconds to wait for a Dask scheduler (--scheduler) to answer before giving up with exit 2
 SCHEDULER_TIMEOUT_S = 10.0
 #: a comparison of paths (polishpath simulate SURFACE, a sweep): seeds, the simulated patch's side (mm) and the

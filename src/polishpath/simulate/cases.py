@@ -32,7 +32,8 @@ import numpy as np
 from ..defaults import DEFAULT_CASE_WORKERS, SCHEDULER_TIMEOUT_S
 from ..errors import ParameterError, SchedulerError, require
 
-__all__ = ["Case", "CaseRunner", "CaseResult", "Start", "TimingCase", "available_cores", "run_cases", "run_timing"]
+__all__ = ["Case", "CaseRunner", "CaseResult", "Start", "TimingCase", "available_cores", "available_memory",
+           "run_cases", "run_timing", "workers_for_memory"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -44,6 +45,32 @@ def available_cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except (AttributeError, OSError):  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def available_memory() -> int:
+    """Bytes of memory available to new processes now (``MemAvailable`` of /proc/meminfo on Linux: free memory
+    plus the caches the kernel can drop; elsewhere the free pages ``os.sysconf`` reports)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:  # pragma: no cover - not Linux
+        pass
+    try:  # pragma: no cover - not Linux
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):  # pragma: no cover
+        return 2**62  # unknown: no cap
+
+
+def workers_for_memory(case_bytes: int, available: int | None = None) -> int:
+    """How many cases of ``case_bytes`` peak bytes each fit at once in ``available`` bytes (default
+    :func:`available_memory`), keeping :data:`~polishpath.defaults.CASE_MEMORY_RESERVE` of it for the calling
+    process and the rest of the machine; at least 1."""
+    from ..defaults import CASE_MEMORY_RESERVE
+
+    avail = available_memory() if available is None else int(available)
+    return max(1, int((avail * (1.0 - CASE_MEMORY_RESERVE)) // max(int(case_bytes), 1)))
 
 
 @dataclass(frozen=True)
@@ -74,9 +101,24 @@ class CaseRunner:
             raise ParameterError(f"the scheduler address must be a non-empty string, got {s!r}.",
                                  "Give the Dask scheduler's address, e.g. --scheduler tcp://host:8786.")
 
-    def n_workers(self, n_cases: int) -> int:
-        """Local processes used for ``n_cases`` cases (at most one per case)."""
-        return max(1, min(int(self.workers or available_cores()), n_cases))
+    def n_workers(self, n_cases: int, case_bytes: int | None = None) -> int:
+        """Local processes used for ``n_cases`` cases (at most one per case).
+
+        With the default (``workers=None``: every core) and an estimate of one case's peak memory
+        ``case_bytes``, no more workers than the memory available now holds
+        (:func:`workers_for_memory`; a note on stderr says so when that is fewer than the cores).
+        """
+        n = max(1, min(int(self.workers or available_cores()), n_cases))
+        if self.workers is None and case_bytes and n > 1:
+            fit = workers_for_memory(case_bytes)
+            if fit < n:
+                from ..progress import warn
+
+                warn(f"running {fit} case(s) at a time instead of {n} (one per core): one case needs about "
+                     f"{case_bytes / 2**30:.1f} GB and {available_memory() / 2**30:.1f} GB of memory is available. "
+                     "Use --workers N to choose.")
+                n = fit
+        return n
 
     def describe(self) -> str:
         return f"Dask scheduler {self.scheduler}" if self.scheduler else (
@@ -109,7 +151,7 @@ def run_cases(fn: Callable[[T], R], cases: Sequence[T], runner: CaseRunner | Non
     cases = list(cases)
     if runner.scheduler:
         return _run_dask(fn, cases, runner.scheduler)
-    n = runner.n_workers(len(cases))
+    n = runner.n_workers(len(cases), max((_peak_bytes(c) for c in cases), default=0))
     if n == 1:
         return [fn(c) for c in cases]
     import multiprocessing as mp
@@ -121,6 +163,12 @@ def run_cases(fn: Callable[[T], R], cases: Sequence[T], runner: CaseRunner | Non
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     with ProcessPoolExecutor(max_workers=n, mp_context=ctx) as ex:
         return list(ex.map(fn, cases))  # map keeps the order of its input
+
+
+def _peak_bytes(case) -> int:
+    """A case's estimate of its peak memory (its ``peak_bytes()``), 0 when it has none."""
+    est = getattr(case, "peak_bytes", None)
+    return int(est()) if callable(est) else 0
 
 
 def _run_dask(fn, cases: list, address: str) -> list:
@@ -161,15 +209,32 @@ class Start:
     workpiece: Any = None
 
     def build(self):
-        """The :class:`~polishpath.simulate.workpiece.Workpiece` (heights nm on a dx_mm grid)."""
+        """The :class:`~polishpath.simulate.workpiece.Workpiece` (heights nm on a dx_mm grid).
+
+        The last recipe built in this process is kept: the paths of one seed share their start, so a worker
+        that runs two of them draws it once (a Workpiece is read-only, so sharing it is safe), and what is
+        derived from it and cached by identity (the smoothing spectrum, the PSD before) is reused too.
+        """
         from .workpiece import flat_workpiece, synthetic_workpiece
 
+        if self.kind not in ("flat", "synthetic"):
+            return self.workpiece
+        key = (self.kind, tuple(map(float, self.bounds)), float(self.dx_mm), float(self.rms_nm),
+               float(self.exponent), tuple(map(float, self.band_per_mm)), int(self.seed))
+        if _LAST_START and _LAST_START[0] == key:
+            return _LAST_START[1]
+        _LAST_START.clear()  # let the previous start go before drawing the next one
         if self.kind == "flat":
-            return flat_workpiece(self.bounds, self.dx_mm)
-        if self.kind == "synthetic":
-            return synthetic_workpiece(self.bounds, self.dx_mm, rms_nm=self.rms_nm, exponent=self.exponent,
-                                       band_per_mm=self.band_per_mm, seed=self.seed)
-        return self.workpiece
+            wp = flat_workpiece(self.bounds, self.dx_mm)
+        else:
+            wp = synthetic_workpiece(self.bounds, self.dx_mm, rms_nm=self.rms_nm, exponent=self.exponent,
+                                     band_per_mm=self.band_per_mm, seed=self.seed)
+        _LAST_START[:] = [key, wp]
+        return wp
+
+
+#: the recipe and Workpiece of the last :meth:`Start.build` in this process
+_LAST_START: list = []
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,6 +264,27 @@ class Case:
     noise: Any
     smoothing: Any
     options: dict = field(default_factory=dict)
+
+
+    def peak_bytes(self) -> int:
+        """Estimated peak memory of running this case, bytes: a fixed part, a part per pixel of its patch and
+        a part per fine path sample (half a pixel apart along the path), with the coefficients of
+        :data:`polishpath.defaults.CASE_MEMORY_MODEL`, measured (benchmarks/bench_simulate_speed.py)."""
+        from ..defaults import CASE_MEMORY_MODEL
+
+        base, per_pixel, per_sample = CASE_MEMORY_MODEL
+        st = self.start
+        if st.kind in ("flat", "synthetic"):
+            x0, y0, x1, y1 = map(float, st.bounds)
+            dx = float(st.dx_mm)
+            pixels = (np.floor((x1 - x0) / dx + 1e-9) + 1) * (np.floor((y1 - y0) / dx + 1e-9) + 1)
+        else:
+            dx = float(st.workpiece.dx_mm)
+            pixels = float(np.prod(st.workpiece.shape))
+        xy = np.asarray(self.path[0], dtype=np.float64)
+        length = float(np.hypot(*np.diff(xy, axis=0).T).sum()) if len(xy) > 1 else 0.0
+        samples = length / (dx / 2.0) + 2 * len(xy)
+        return int(base + per_pixel * pixels + per_sample * samples)
 
 
 @dataclass(frozen=True)

@@ -317,9 +317,19 @@ def _splat_matrix(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: floa
     return csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(ny * nx, ncol))
 
 
-def _touches_grid(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float) -> np.ndarray:
-    """(M,) bool: the samples whose bilinear splat puts some time on the grid (the others add nothing to it)."""
+def _touches_grid(xy: np.ndarray, shape: tuple[int, int], origin_mm, dx_mm: float, margin_px: float = 0.0
+                  ) -> np.ndarray:
+    """(M,) bool: the samples whose bilinear splat can put time on the grid (the others add nothing to it).
+
+    ``margin_px`` widens the box by that many pixels each way (a cheap superset: the splat drops the extra
+    samples' corners off the grid anyway).
+    """
     ny, nx = shape
+    x, y = xy[:, 0], xy[:, 1]
+    if margin_px > 0:  # four comparisons, no floor
+        m = (1.0 + margin_px) * dx_mm
+        x0, y0 = float(origin_mm[0]), float(origin_mm[1])
+        return (x >= x0 - m) & (x < x0 + nx * dx_mm + m) & (y >= y0 - m) & (y < y0 + ny * dx_mm + m)
     i0, j0, _, _ = _bilinear_cells(xy, origin_mm, dx_mm)
     return (i0 >= -1) & (i0 < nx) & (j0 >= -1) & (j0 < ny)
 
@@ -382,8 +392,16 @@ def _upsample_crop(acc: np.ndarray, sy: int, sx: int, q: int, r0: int, r1: int, 
     return full
 
 
+def _coarse_factor(tif: RotatingToolTIF, dx: float, removal_dx_mm: float | None) -> int:
+    """q: a rotating tool's removal is convolved on a grid of pitch q dx (``removal_dx_mm`` rounded down to a
+    multiple of the pixel; automatic: 1/100 of the contact radius, at most 20 um)."""
+    if removal_dx_mm is None:
+        removal_dx_mm = min(0.02, tif.contact_radius_mm / 100.0)
+    return max(1, int(np.floor(removal_dx_mm / dx + 1e-9)))
+
+
 def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: RotatingToolTIF,
-                      removal_dx_mm: float | None, tol: float, basis_times=None):
+                      removal_dx_mm: float | None, tol: float, basis_times=None, near=None):
     """Removal (nm) of a :class:`RotatingToolTIF` with each sample's own feed velocity.
 
     The TIF family is expanded in fixed kernels (:meth:`RotatingToolTIF.basis`);
@@ -393,14 +411,14 @@ def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: R
     zero-padding the spectrum (exact for content below the coarse Nyquist
     frequency; the TIF passes nothing above it) with the bilinear splat's
     transfer function corrected to that of the fine grid. ``basis_times``
-    (default ``t``) weights the speeds the basis has to reproduce best.
+    (default ``t``) weights the speeds the basis has to reproduce best. ``near``
+    (M,) bool, optional: a superset of the samples that reach the coarse grid
+    (:func:`_touches_grid`); only they are splatted.
     """
     import scipy.fft as sfft
 
     ny, nx = shape
-    if removal_dx_mm is None:  # automatic: 1/100 of the contact radius, at most 20 um, a multiple of dx
-        removal_dx_mm = min(0.02, tif.contact_radius_mm / 100.0)
-    q = max(1, int(np.floor(removal_dx_mm / dx + 1e-9)))
+    q = _coarse_factor(tif, dx, removal_dx_mm)
     dxc = q * dx
     nyc, nxc = (ny - 1 + q - 1) // q + 1, (nx - 1 + q - 1) // q + 1
     on = t > 0
@@ -408,10 +426,12 @@ def _rotating_removal(xy, t, speed, heading, shape, origin_mm, dx: float, tif: R
     s_lo, s_hi = (float(sp.min()), float(sp.max())) if sp.size else (0.0, 0.0)
     bt = t if basis_times is None else basis_times
     basis = tif.basis(dxc, (s_lo, s_hi), tol=tol, sample_speeds=sp, sample_times=bt[on])
+    del on, sp, bt
     # Only the samples that reach the coarse grid (which covers the fine one) remove anything here: on a
     # patch of a large part most of the path is elsewhere. The basis above was fitted to the whole path.
-    keep = _touches_grid(xy, (nyc, nxc), origin_mm, dxc)
-    xy, t, speed, heading = xy[keep], t[keep], speed[keep], heading[keep]
+    if near is None:
+        near = _touches_grid(xy, (nyc, nxc), origin_mm, dxc)
+    xy, t, speed, heading = xy[near], t[near], speed[near], heading[near]
     # A sample's coefficients depend only on its speed and heading, the same along each move (a run of
     # samples): the coefficients are computed once per run, the splat sums each run's time per pixel.
     run, first = _runs(speed, heading)
@@ -508,10 +528,13 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
     shape = workpiece.shape
     rot_info = None
     if isinstance(tif, RotatingToolTIF):
-        near = _touches_grid(xy, shape, workpiece.origin_mm, dx)  # the rest puts no time on the grid
+        # the samples near the patch (a box wide enough to hold all that reach the fine or the coarse grid):
+        # the rest put no time on it
+        # (the coarse grid of q pixels reaches at most 2 q - 2 pixels beyond the fine one)
+        near = _touches_grid(xy, shape, workpiece.origin_mm, dx,
+                             margin_px=2.0 * _coarse_factor(tif, dx, removal_dx_mm) + 1.0)
         total_density, lost = rasterize_time(xy[near], t[near], shape, workpiece.origin_mm, dx)
         lost += float(t[~near].sum())
-        del near
         on_grid = total_density.sum() * dx * dx
         # expected volume: exact volume rate at each sample's speed (table over the speeds present)
         on = t > 0
@@ -522,7 +545,8 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
         expected = float(np.sum(t * vr)) * (on_grid / tt if tt > 0 else 0.0)
         t2 = time.perf_counter()
         removal, basis, q = _rotating_removal(xy, t, speed, heading, shape, workpiece.origin_mm, dx, tif,
-                                              removal_dx_mm, basis_tol, basis_times=t_motion)
+                                              removal_dx_mm, basis_tol, basis_times=t_motion, near=near)
+        del near
         rot_info = {"n_terms": basis.params["n_terms"], "harmonics": basis.params["harmonics"],
                     "truncation_rel_error": basis.rel_error, "removal_dx_mm": q * dx,
                     "speed_range_mm_s": basis.params["speed_range_mm_s"],
@@ -552,6 +576,8 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
         t2 = time.perf_counter()
         removal = (_convolve_sum(densities, kernels) * (dx * dx)).astype(np.float32)
         t3 = time.perf_counter()
+    effective_time, n_samples = float(np.sum(t)), int(len(t))
+    del xy, t, heading, arc, length, speed, t_motion  # the path samples: not needed from here on
     sub = removal[::4, ::4]  # a quarter of the pixels each way is plenty for these statistics
     thr = 0.5 * float(np.percentile(sub, 99.5))
     mean_depth = float(np.median(sub[sub > thr])) if thr > 0 else 0.0
@@ -573,9 +599,9 @@ def simulate_removal(path_xy, dwell_s, workpiece: Workpiece, tif: TIF | Directio
         "n_path_points": int(len(np.asarray(path_xy))), "workpiece": workpiece.provenance.to_dict(),
     }
     stats = {
-        "total_time_s": float(np.sum(dwell_s)), "effective_time_s": float(np.sum(t)), "time_on_grid_s": float(total_density.sum() * dx * dx),
+        "total_time_s": float(np.sum(dwell_s)), "effective_time_s": effective_time, "time_on_grid_s": float(total_density.sum() * dx * dx),
         "time_off_grid_s": lost, "removed_volume_nm_mm2": float(removal.sum(dtype=np.float64) * dx * dx),
-        "expected_volume_nm_mm2": expected, "mean_depth_nm": mean_depth, "n_samples": int(len(t)),
+        "expected_volume_nm_mm2": expected, "mean_depth_nm": mean_depth, "n_samples": n_samples,
         "n_direction_groups": len(groups), "rotating": rot_info, "motion": motion,
         "timings_s": {"sample": t1 - t0, "rasterize": t2 - t1, "convolve": t3 - t2, "smooth": t4 - t3,
                       "total": t4 - t0},
