@@ -3,16 +3,18 @@
 ``--sets``: the two dwell-point sets side by side in the same run (issue 26): the
 grid walk and the blue-noise walk (no lattice) on one disc at 1e5, 1e6 and 1e7
 points (``--set-sizes``), each case in its own process so that its peak RSS is
-its own: seconds (points / grid, walk), points per second, pieces, steps (mean
+its own: CPU seconds (plan end to end; the set alone), points per second, pieces (tool lifts), steps (mean
 and largest, in spacings; the step histogram), the share of the busiest and the
 emptiest of 16 direction sectors (x 16: 1 is an even share), and, at
 ``--density-size`` points, the time-density peaks: the machine samples at a
 constant period (4 ms, 600 mm/min) on the flat disc, binned at h/8 in a centre
 window of 40 h, the rows' and columns' PSD (Hann) at 1/(2h), 1/h, sqrt(2)/h and
-2/h in dB over the median of +-35 % around each. The target (issue 26): 10^6
+2/h in dB over the median of +-35 % around each; up to ``--check-size`` points the guarantees
+(each point once, no crossing, inside, no step over 2 spacings within a piece, no 22.5-degree
+sector over 1.5x its share), checked from the raw path. The target (issue 26): 10^6
 blue-noise points planned in at most 2x the grid walk's time; 10^7 completes.
 
-    PYTHONPATH=src python benchmarks/bench_plan.py --sets [--set-sizes 1e5,1e6,1e7] [--density-size 1e5]
+    PYTHONPATH=src python benchmarks/bench_plan.py --sets [--set-sizes 1e5,1e6,1e7] [--density-size 1e5] [--check-size 1e6]
 
 Prints, for 1e4, 1e5 and 1e6 dwell points (1e7 with ``--big``): grid time,
 planning time, points per second end to end, pieces, walk fraction, direction
@@ -106,31 +108,80 @@ def time_density_peaks(path, window_h: float = 40.0, pix: int = 8, feed: float =
     return out
 
 
-def run_case(dwell_points: str, n: int, seed: int, density: bool) -> dict:
-    """One planning case (in its own process): figures as a dict (printed as JSON by ``--case``)."""
+def guarantees(p, region: Region, margin: float) -> dict:
+    """The walk's guarantees (issue 26), checked from the raw path: each a bool, and the figures behind them.
+
+    Each dwell point once (the set's numbers, or the grid's indices, a permutation; none unreached); no
+    crossing (the metrics' independent segment test); every point and step inside the region shrunk by the
+    margin (shapely); within a piece no step over 2 spacings; no 22.5-degree direction sector over 1.5x its
+    share (for the lattice-free walk; the grid walk's 8 directions hold 2.24x by construction).
+    """
+    import shapely
+
+    from polishpath.plan import count_crossings
+    from polishpath.plan.dwell import region_polygon
+
+    uv, h = np.asarray(p.uv), p.spacing
+    key = p.ij[:, 0] if p.dwell_points == "blue-noise" else p.ij[:, 0].astype(np.int64) * (1 << 32) + p.ij[:, 1]
+    once = bool(len(p.unreached) == 0 and len(np.unique(key)) == p.n_points == p.n_inside)
+    crossings = int(count_crossings(uv, p.pieces))
+    poly = region_polygon(region, margin).buffer(1e-9)
+    shapely.prepare(poly)
+    segs = [np.stack([uv[a:b - 1], uv[a + 1:b]], axis=1) for a, b in zip(p.pieces[:-1], p.pieces[1:]) if b - a > 1]
+    inside = bool(shapely.contains_xy(poly, uv[:, 0], uv[:, 1]).all()
+                  and all(shapely.covers(poly, shapely.linestrings(sg)).all() for sg in segs))
+    steps = np.concatenate([np.hypot(*np.diff(uv[a:b], axis=0).T) for a, b in zip(p.pieces[:-1], p.pieces[1:])])
+    d = np.concatenate([np.diff(uv[a:b], axis=0) for a, b in zip(p.pieces[:-1], p.pieces[1:])])
+    sectors = np.bincount(((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // (np.pi / 8)).astype(int) % 16, minlength=16)
+    share_max = float(sectors.max() / sectors.sum() * 16)
+    return {"each_once": once, "crossings": crossings, "inside": inside, "step_max_h": float(steps.max() / h),
+            "sector_max_share": share_max,
+            # the sector rule is the lattice-free walk's (the grid walk steps in its 8 directions only)
+            "ok": bool(once and crossings == 0 and inside and steps.max() <= 2 * h
+                       and (share_max <= 1.5 or p.dwell_points == "grid"))}
+
+
+def run_case(dwell_points: str, n: int, seed: int, density: bool, check: bool = False) -> dict:
+    """One planning case (in its own process): figures as a dict (printed as JSON by ``--case``).
+
+    Times are CPU seconds of this process (the planner is single-threaded, so they do not depend on the
+    machine's load the way wall-clock seconds do): ``total_s`` is ``plan`` end to end, ``set_s`` a second,
+    separate build of the dwell-point set alone.
+    """
+    from polishpath.plan import dwell_grid
+    from polishpath.plan.points import blue_noise_points
+
     region = disc_region(float(n))
     plan(disc_region(400.0), 1.0, seed=0, dwell_points=dwell_points)  # numba compile or cache load
-    t = time.perf_counter()
+    t = time.process_time()
     p = plan(region, 1.0, seed=seed, dwell_points=dwell_points)
-    total = time.perf_counter() - t
+    total = time.process_time() - t
+    t = time.process_time()
+    if dwell_points == "grid":
+        dwell_grid(region, 1.0)
+    else:
+        blue_noise_points(region, 1.0, seed=seed)
+    set_s = time.process_time() - t
     steps = np.concatenate([np.hypot(*np.diff(p.uv[a:b], axis=0).T) for a, b in zip(p.pieces[:-1], p.pieces[1:])])
     d = np.concatenate([np.diff(p.uv[a:b], axis=0) for a, b in zip(p.pieces[:-1], p.pieces[1:])])
     sectors = np.bincount(((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // (np.pi / 8)).astype(int) % 16, minlength=16)
     share = sectors / sectors.sum() * 16
-    out = {"set": dwell_points, "points": p.n_points, "set_s": p.stats["grid_seconds"],
-           "walk_s": total - p.stats["grid_seconds"], "total_s": total, "pieces": len(p.pieces) - 1,
+    out = {"set": dwell_points, "points": p.n_points, "set_s": set_s,
+           "walk_s": total - set_s, "total_s": total, "pieces": len(p.pieces) - 1,
            "extra_pieces": p.stats["extra_pieces"], "walk_fraction": p.stats["walk_fraction"],
            "step_mean": float(steps.mean()), "step_max": float(steps.max()),
            "step_hist": np.histogram(steps, bins=[0, 0.95, 1.05, 1.2, 1.35, 1.45, 1.55, 1.7, 10])[0].tolist(),
            "sector_min": float(share.min()), "sector_max": float(share.max()), "rss_mb": peak_rss_mb()}
     if density:
         out["density_db"] = time_density_peaks(p)
+    if check:
+        out["guarantees"] = guarantees(p, region, 0.0)
     return out
 
 
-def compare_sets(sizes: list[int], seed: int, density_size: int) -> None:
+def compare_sets(sizes: list[int], seed: int, density_size: int, check_size: int) -> None:
     """The grid walk and the blue-noise walk side by side, each case in its own process."""
-    print(f"{'set':10s} {'points':>9s} {'set s':>7s} {'walk s':>7s} {'total s':>8s} {'pts/s':>9s} {'pieces':>6s} "
+    print(f"{'set':10s} {'points':>9s} {'set cpu':>7s} {'rest':>7s} {'cpu s':>8s} {'pts/s':>9s} {'pieces':>6s} "
           f"{'extra':>5s} {'walk%':>6s} {'step mean/max':>13s} {'sector min..max':>15s} {'RSS MB':>7s}  "
           "time density dB (1/2h, 1/h, sqrt2/h, 2/h)")
     results: dict[tuple[str, int], dict] = {}
@@ -139,6 +190,8 @@ def compare_sets(sizes: list[int], seed: int, density_size: int) -> None:
             cmd = [sys.executable, __file__, "--case", dp, str(n), "--seed", str(seed)]
             if n == density_size:
                 cmd.append("--density")
+            if n <= check_size:
+                cmd.append("--check")
             r = subprocess.run(cmd, capture_output=True, text=True)
             if r.returncode != 0:
                 print(f"{dp:10s} {n:9d} FAILED: {r.stderr.strip().splitlines()[-1] if r.stderr else r.returncode}")
@@ -150,6 +203,13 @@ def compare_sets(sizes: list[int], seed: int, density_size: int) -> None:
                   f"{c['points'] / c['total_s']:9.0f} {c['pieces']:6d} {c['extra_pieces']:5d} "
                   f"{100 * c['walk_fraction']:6.1f} {c['step_mean']:6.2f}/{c['step_max']:5.2f} "
                   f"{c['sector_min']:7.2f}..{c['sector_max']:5.2f} {c['rss_mb']:7.0f}  {dens}", flush=True)
+    print("guarantees (each point once, crossings, inside, largest step / h, busiest sector / its share; ok):")
+    for (dp, n), c in results.items():
+        if "guarantees" in c:
+            g = c["guarantees"]
+            print(f"  {dp:10s} {c['points']:9d} once={g['each_once']} crossings={g['crossings']} inside={g['inside']} "
+                  f"step_max={g['step_max_h']:.3f} sector_max={g['sector_max_share']:.3f} -> "
+                  f"{'ok' if g['ok'] else 'FAILED'}")
     print("step histogram (spacings: <0.95, -1.05, -1.2, -1.35, -1.45, -1.55, -1.7, more):")
     for (dp, n), c in results.items():
         print(f"  {dp:10s} {c['points']:9d} " + " ".join(f"{x / max(sum(c['step_hist']), 1):.3f}" for x in c["step_hist"]))
@@ -170,6 +230,9 @@ def main() -> None:
     ap.add_argument("--density-size", type=float, default=1e5, help="size at which the time density is measured")
     ap.add_argument("--case", nargs=2, metavar=("SET", "N"), help=argparse.SUPPRESS)
     ap.add_argument("--density", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--check", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--check-size", type=float, default=1e6,
+                    help="check the guarantees (each point once, no crossing, inside, steps, sectors) up to this size")
     ap.add_argument("--big", action="store_true", help="also 1e7 dwell points")
     ap.add_argument("--metrics", action="store_true", help="also time path_metrics (crossings checked independently)")
     ap.add_argument("--seed", type=int, default=0)
@@ -177,10 +240,11 @@ def main() -> None:
     ap.add_argument("--shapes", type=str, default="disc,star,annulus")
     args = ap.parse_args()
     if args.case:
-        print(json.dumps(run_case(args.case[0], int(float(args.case[1])), args.seed, args.density)))
+        print(json.dumps(run_case(args.case[0], int(float(args.case[1])), args.seed, args.density, args.check)))
         return
     if args.sets:
-        compare_sets([int(float(x)) for x in args.set_sizes.split(",")], args.seed, int(args.density_size))
+        compare_sets([int(float(x)) for x in args.set_sizes.split(",")], args.seed, int(args.density_size),
+                     int(args.check_size))
         return
 
     sizes = [10_000, 100_000, 1_000_000] + ([10_000_000] if args.big else [])

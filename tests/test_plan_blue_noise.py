@@ -303,3 +303,24 @@ def test_simulate_compares_the_walk_on_a_set_named_after_its_pattern(tmp_path):
     bad = CliRunner().invoke(app, ["simulate", "hemisphere:R=15,triangles=800", "--patterns",
                                    "pseudorandom:hexagonal", "-o", str(tmp_path / "x")])
     assert bad.exit_code == 2 and "dwell-point set 'hexagonal'" in bad.output and "Traceback" not in bad.output
+
+
+def test_a_disc_and_the_hemisphere_are_one_piece_as_on_the_grid(hemisphere_flat):
+    # the grid walk's rule: a convex or simply connected region is one continuous piece (no tool lift). The
+    # walk's end-game places every point it left (a leftover point ringed by path points passed crosswise,
+    # or a rim point with two neighbours, is placed by moving a neighbour beside another with it between);
+    # before that, seed 8 on this disc left 6 pieces
+    from polishpath.pipeline import plan_on_surface
+
+    region = Region(disc(100.0, 720))
+    for seed in range(1, 9):
+        path = plan(region, H, seed=seed, dwell_points="blue-noise")
+        assert len(path.pieces) - 1 == 1 and path.stats["extra_pieces"] == 0, seed
+        assert np.array_equal(np.sort(path.ij[:, 0]), np.arange(path.n_points))
+        assert count_crossings(path.uv, path.pieces) == 0
+    reg = boundary_region(hemisphere_flat)
+    for seed in (1, 2, 3):
+        bn = plan_on_surface(hemisphere_flat, reg, 0.7, seed=seed, dwell_points="blue-noise", margin=None).planar
+        grid = plan_on_surface(hemisphere_flat, reg, 0.7, seed=seed, margin=None).planar
+        assert len(bn.pieces) - 1 == len(grid.pieces) - 1 == 1, seed
+        assert count_crossings(bn.uv, bn.pieces) == 0 and len(bn.unreached) == 0

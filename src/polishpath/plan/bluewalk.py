@@ -19,7 +19,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import ParameterError
-from ._graphwalk import plan_graph_component
+from ._graphendgame import plan_graph_component
 from ._steps import N_STATS
 from ._component import collect_pieces
 from .checks import check_count, check_index, check_number, check_seed

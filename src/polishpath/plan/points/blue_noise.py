@@ -10,7 +10,9 @@ large square), no two points closer than ``r``. The radius is chosen so that the
 density is that of the square grid of the same spacing ``h`` (1 / h^2):
 ``r = sqrt(DENSITY_R2) h`` = 0.90 h. The points are sampled over the region's
 bounding box and the ones inside the region (shrunk by the margin) are kept, so
-the density is the same up to the boundary. Written by hand (numba) because
+the density is the same up to the boundary; they are then numbered by square cell of one
+spacing, row by row, so that neighbours sit near each other in memory (the graph's
+construction and the walk read them about 1.5x faster). Written by hand (numba) because
 ``scipy.stats.qmc.PoissonDisk`` takes about 1 ms per point, far too slow for
 10^6-10^7 dwell points; the loop is the textbook one.
 
@@ -65,7 +67,7 @@ class BlueNoisePoints:
     Attributes
     ----------
     uv : (n, 2) float64
-        Dwell points, mm (in the order they were sampled).
+        Dwell points, mm, numbered by square cell of one spacing, row by row (see :func:`cell_lists`).
     spacing : float
         The spacing ``h`` whose square grid has the same density, mm.
     min_distance : float
@@ -103,6 +105,19 @@ class BlueNoisePoints:
         a = np.repeat(np.arange(self.n), np.diff(self.indptr))
         keep = a < self.indices
         return np.stack([a[keep], self.indices[keep]], axis=1)
+
+
+def _neighbour_cells() -> tuple[np.ndarray, np.ndarray]:
+    """Offsets (di, dj) of the sampler's cells (side r / sqrt(2)) that can hold a point closer than r, nearest first.
+
+    The 5 x 5 block without its corners (a corner cell is at least r away), sorted by the distance between cells.
+    """
+    d = [(i, j) for j in range(-2, 3) for i in range(-2, 3) if abs(i) + abs(j) < 4]
+    d.sort(key=lambda t: (t[0] ** 2 + t[1] ** 2, t[1], t[0]))
+    return np.array([t[0] for t in d], np.int64), np.array([t[1] for t in d], np.int64)
+
+
+NBR_DI, NBR_DJ = _neighbour_cells()
 
 
 @numba.njit(cache=True)
@@ -148,17 +163,19 @@ def _poisson_disk(w, hgt, r, k, seed):  # pragma: no cover - numba
             gi = int(cx / cell)
             gj = int(cy / cell)
             bad = False
-            for jj in range(max(gj - 2, 0), min(gj + 3, gh)):
-                for ii in range(max(gi - 2, 0), min(gi + 3, gw)):
-                    q = grid[jj * gw + ii]
-                    if q >= 0:
-                        dx = xs[q] - cx
-                        dy = ys[q] - cy
-                        if dx * dx + dy * dy < r2:
-                            bad = True
-                            break
-                if bad:
-                    break
+            # the 21 cells that can hold a point closer than r, nearest first: a rejection ends early
+            for o in range(NBR_DI.shape[0]):
+                ii = gi + NBR_DI[o]
+                jj = gj + NBR_DJ[o]
+                if ii < 0 or jj < 0 or ii >= gw or jj >= gh:
+                    continue
+                q = grid[jj * gw + ii]
+                if q >= 0:
+                    dx = xs[q] - cx
+                    dy = ys[q] - cy
+                    if dx * dx + dy * dy < r2:
+                        bad = True
+                        break
             if not bad:
                 xs[n] = cx
                 ys[n] = cy
@@ -222,7 +239,7 @@ def blue_noise_points(region: Region, spacing: float, *, seed: int, margin: floa
     ys += y0
     shapely.prepare(poly)
     inside = shapely.contains_xy(poly, xs, ys)
-    uv = np.ascontiguousarray(np.stack([xs[inside], ys[inside]], axis=1))
+    uv = np.stack([xs[inside], ys[inside]], axis=1)
     if len(uv) < 2:
         rx0, ry0, rx1, ry1 = region.bounds
         raise SpacingTooLargeError(
@@ -230,6 +247,8 @@ def blue_noise_points(region: Region, spacing: float, *, seed: int, margin: floa
             f"({rx1 - rx0:.4g} x {ry1 - ry0:.4g} mm, area {region.area:.4g} mm^2"
             + (f", margin {margin:.4g} mm" if margin else "") + ").",
             "Use a smaller spacing (at most about half the region's width).")
+    # numbered by cell of one spacing, row by row: neighbours sit near in memory for the graph and the walk
+    uv = np.ascontiguousarray(uv[cell_lists(uv, spacing)[0]])
     indptr, indices, triangles = neighbour_graph(uv, spacing, poly)
     area = cell_areas(uv, triangles, spacing)
     return BlueNoisePoints(uv=uv, spacing=spacing, min_distance=r, margin=margin, indptr=indptr, indices=indices,
@@ -429,26 +448,67 @@ def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, n
                                    EMPTY_CIRCLE_FACTOR * spacing, 1e-9 * spacing)
     near = _near_boundary(poly, uv, TRIANGLE_EDGE_FACTOR * spacing)
     check = near[ea] | near[eb]
-    keep = np.ones(len(ea), dtype=bool)
+    keep = np.ones(len(ea), dtype=np.bool_)
     if check.any():
         k = np.flatnonzero(check)
         lines = shapely.linestrings(np.stack([uv[ea[k]], uv[eb[k]]], axis=1))
         keep[k] = shapely.covers(poly, lines)
-    ea, eb = ea[keep], eb[keep]
-    # the triangles whose three edges are inside the region
-    inside = np.sort(ea * n + eb)
-    tri_keep = np.ones(len(tris), dtype=bool)
-    for a, b in ((0, 1), (1, 2), (0, 2)):
-        q = tris[:, a] * n + tris[:, b]
-        pos = np.minimum(np.searchsorted(inside, q), max(len(inside) - 1, 0))
-        tri_keep &= inside[pos] == q if len(inside) else False
-    short = np.hypot(*(uv[ea] - uv[eb]).T) <= lmax
-    ea, eb = ea[short], eb[short]
-    keys = np.sort(np.concatenate([ea * n + eb, eb * n + ea]))
-    indices = np.ascontiguousarray(keys % n)
-    indptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(keys // n, minlength=n), out=indptr[1:])
+    # the triangles whose three edges are inside the region; the walk's graph: the inside edges up to lmax
+    ip_all, ix_all = _csr(ea, eb, keep, n)
+    tri_keep = _triangles_inside(tris, ip_all, ix_all)
+    short = keep & ((uv[ea, 0] - uv[eb, 0]) ** 2 + (uv[ea, 1] - uv[eb, 1]) ** 2 <= lmax * lmax)
+    indptr, indices = _csr(ea, eb, short, n)
     return indptr, indices, tris[tri_keep]
+
+
+@numba.njit(cache=True)
+def _csr(ea, eb, keep, n):  # pragma: no cover - numba
+    # symmetric CSR adjacency (rows sorted) of the undirected edges (ea[i], eb[i]) with keep[i]: a counting sort
+    indptr = np.zeros(n + 1, np.int64)
+    for i in range(ea.shape[0]):
+        if keep[i]:
+            indptr[ea[i] + 1] += 1
+            indptr[eb[i] + 1] += 1
+    for p in range(n):
+        indptr[p + 1] += indptr[p]
+    fill = indptr[:-1].copy()
+    indices = np.empty(indptr[n], np.int64)
+    for i in range(ea.shape[0]):
+        if keep[i]:
+            indices[fill[ea[i]]] = eb[i]
+            fill[ea[i]] += 1
+            indices[fill[eb[i]]] = ea[i]
+            fill[eb[i]] += 1
+    for p in range(n):  # rows are short (about 6): an insertion sort
+        for j in range(indptr[p] + 1, indptr[p + 1]):
+            v = indices[j]
+            i = j - 1
+            while i >= indptr[p] and indices[i] > v:
+                indices[i + 1] = indices[i]
+                i -= 1
+            indices[i + 1] = v
+    return indptr, indices
+
+
+@numba.njit(cache=True)
+def _triangles_inside(tris, indptr, indices):  # pragma: no cover - numba
+    # (T,) bool: the triangles whose three edges are in the graph (indptr, indices)
+    out = np.zeros(tris.shape[0], np.bool_)
+    for t in range(tris.shape[0]):
+        ok = True
+        for e in range(3):
+            a = tris[t, e]
+            b = tris[t, (e + 1) % 3]
+            found = False
+            for j in range(indptr[a], indptr[a + 1]):
+                if indices[j] == b:
+                    found = True
+                    break
+            if not found:
+                ok = False
+                break
+        out[t] = ok
+    return out
 
 
 @numba.njit(cache=True)
