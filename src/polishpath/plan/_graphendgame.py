@@ -375,7 +375,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
                         inq[q] = 1
                         queue[qt % cap] = q
                         qt += 1
-                qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, 0)
+                qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, np.int64(0))
     wk = walk_id + 1
     for i in range(n):
         u = nodes[i]
