@@ -23,7 +23,7 @@ import numpy as np
 from .. import progress, resources
 from ..axes import with_tool_axes
 from ..config import JobConfig, parse_job
-from ..defaults import (DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS, FIGURING_REGION_TOL,
+from ..defaults import (DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_MIN, DEFAULT_PERIOD_MS, FIGURING_EXTENSION_WEIGHT, FIGURING_REGION_TOL,
                         FIGURING_SCHEDULE_PASSES, FIGURING_TMIN_HEADROOM, FIGURING_TURN_HEADROOM, MAX_FEED_FACTOR)
 from ..errors import ParameterError, PlanningError
 from ..provenance import resolve_seed
@@ -302,8 +302,8 @@ def figure_for_job(cfg: JobConfig, surface: Surface, spath: SurfacePath, smooth_
     fig = figure_dwell_times(
         surface, spath, emap, build_tif(cfg.tif), max_feed_mm_min=max_feed, alignment=Alignment.from_dict(o),
         bias_nm=o.get("bias_nm", "auto"), method=o.get("method", "auto"), smoothness=float(o.get("smoothness", DEFAULT_SMOOTHNESS)),
-        extension_weight=float(o.get("extension_weight", 0.2)), max_uncovered=float(o.get("max_uncovered", 0.02)),
-        ca_margin_mm=float(o.get("ca_margin_mm", 0.0)),
+        extension_weight=float(o.get("extension_weight", FIGURING_EXTENSION_WEIGHT)), max_uncovered=float(o.get("max_uncovered", 0.02)),
+        ca_margin_mm=float(o["ca_margin_mm"]) if "ca_margin_mm" in o else None,  # None: the dwell stage's default
         period_ms=period_s * 1000.0,
         chord_tol_mm=cfg.chord_tol_mm or DEFAULT_CHORD_TOL_MM, t_min_s=least_times(spath, fastest, max_feed, period_s), force=cfg.force)
     return fig, max_feed
