@@ -110,7 +110,7 @@ def test_a_program_that_improves_the_part_passes_and_leads_with_initial_to_predi
     assert fg["verdict"].startswith(f"initial {fg['initial_rms_nm']:.3g} nm RMS")
     assert f"-> predicted {fg['residual_rms_nm']:.3g} nm RMS" in fg["verdict"]
     assert fg["forced"] is False and fg["refusals"] == []
-    assert fg["floor_nm"] < 0.1 * fg["initial_pv_nm"]
+    assert fg["floor_nm"] < 0.2 * fg["initial_pv_nm"]  # below the share where a refusal's advice starts
     assert fg["residual_rms_nm"] < 0.2 * fg["initial_rms_nm"]
 
 
@@ -129,15 +129,16 @@ def _independent_removal(samples_xy, sample_s, pixels_xy, peak_rate, sigma):
 
 @pytest.fixture(scope="module")
 def figured_r20(maps):
-    """Disc R 20 mm, defocus + astigmatism + coma, TIF 5 mm FWHM at 2 nm/s, 1 mm spacing, clear aperture
-    r <= 16 mm (issue 28's case), through the whole job."""
+    """Disc R 20 mm, defocus + astigmatism + coma, TIF 5 mm FWHM at 2 nm/s, 1 mm spacing (issue 28's case),
+    through the whole job as a user gives it: no clear aperture, so the default one (the part inset by one TIF
+    FWHM, r <= 15 mm)."""
     import warnings
 
     from polishpath.pipeline import JobConfig, run
 
     _, low, _ = maps
     cfg = JobConfig(surface=PART, spacing=1.0, seed=1, error_map=str(low), tif="gaussian:fwhm=5,peak_rate=2",
-                    report=False, error_map_options={"ca_margin_mm": 4.0})
+                    report=False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         return run(cfg)
@@ -150,10 +151,17 @@ def test_low_order_map_is_figured_to_2_percent_inside_the_aperture_by_an_indepen
     fg = job.summary()["figuring"]
     init, res = fg["initial_rms_nm"], fg["residual_rms_nm"]
     assert res <= 0.02 * init, fg["verdict"]
+    # no clear aperture given: the default, the part inset by one FWHM, said in the summary and its verdict line
+    assert fg["clear_aperture"]["source"] == "default"
+    assert fg["clear_aperture"]["margin_mm"] == pytest.approx(5.0, rel=1e-9)
+    assert "the part inset by 5 mm (by default" in fg["verdict"]
+    # ... and the whole part's figures beside it: the band next to the edge is worse, which is why it is left out
+    assert fg["part_residual_rms_nm"] > 2 * res and fg["part_initial_rms_nm"] > init
     # pixels of the clear aperture on a 1 mm grid; the error from its formula, not from the map read
-    g = np.arange(-16.0, 16.0 + 1e-9, 1.0)
+    r_ca = 20.0 - fg["clear_aperture"]["margin_mm"]
+    g = np.arange(-r_ca, r_ca + 1e-9, 1.0)
     X, Y = np.meshgrid(g, g)
-    inside = np.hypot(X, Y) <= 16.0 - 1e-9
+    inside = np.hypot(X, Y) <= r_ca - 1e-9
     px = np.column_stack([X[inside], Y[inside]])
     err = _low_order(px[:, 0], px[:, 1])
     tp = job.tool_path

@@ -22,6 +22,19 @@ DEFAULT_INTEGRATOR = "taylor"
 #: figuring refuses (exit 2, unless --force) when the minimum-removal floor (what every dwell point's least time
 #: removes, on average over the clear aperture) exceeds this share of the error's PV, the deepest removal it needs
 FIGURING_FLOOR_MAX_SHARE = 1.0
+#: figuring without [error_map] ca_margin_mm: the clear aperture (where the residual is figured and reported) is
+#: the part inset by this many TIF widths (FWHM); next to the edge a dwell point's footprint is partly off the part
+#: and that band cannot be figured like the inside (issue 28 item 2: 5.6 % inside r <= 16 mm when it is fitted at
+#: full weight, 1.6 % when not). See docs/figuring.md, "The clear aperture by default"
+FIGURING_CA_MARGIN_FWHMS = 1.0
+#: ... halved until the clear aperture keeps at least this share of the part's area (a part not much wider
+#: than the TIF)
+FIGURING_CA_MIN_AREA_SHARE = 0.25
+#: figuring: the fit weight of the part outside the clear aperture (and of masked pixels) against 1 inside it: the
+#: band next to the edge is fitted only lightly, so that what a TIF cannot reach there does not pull the clear
+#: aperture (disc R 20 mm, TIF 5 mm, clear aperture r <= 15 mm: 2.1 % of the initial RMS left at 0.2, 1.0 % at
+#: 0.05, 0.89 % at 0.02, 2.0 % at 0: nothing then holds the edge points' times; the figuring example 2.9 -> 0.8 %)
+FIGURING_EXTENSION_WEIGHT = 0.05
 #: the parameters a refusal suggests bring the floor down to this share of the error's PV
 FIGURING_FLOOR_ADVICE_SHARE = 0.2
 #: flattening method (the paper's MABF)

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import FIGURING_CA_MARGIN_FWHMS, FIGURING_CA_MIN_AREA_SHARE, FIGURING_EXTENSION_WEIGHT
 from ..errors import FiguringError, FiguringRefusedError
 from ..types import Provenance, Surface, SurfacePath
 from .delivery import region_centroids
@@ -28,9 +29,10 @@ from .solver import (
     solve_dwell,
     split_by_frequency,
     tif_rate,
+    tif_fwhm_mm,
     tif_reach_mm,
 )
-from .target import Target, aperture_geometry, build_target, rms_pv
+from .target import Target, aperture_geometry, build_target, default_ca_margin_mm, rms_pv
 from .verdict import FloorAdvice, FloorCheck, advice_scale, floor_exceeds, refusal_for_floor
 
 
@@ -72,9 +74,9 @@ class Figuring:
 
 def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: ErrorMap, tif, *,
                        max_feed_mm_min: float, alignment: Alignment | None = None, bias_nm: float | str = "auto",
-                       method: str = "auto", smoothness: float = DEFAULT_SMOOTHNESS, extension_weight: float = 0.2,
+                       method: str = "auto", smoothness: float = DEFAULT_SMOOTHNESS, extension_weight: float = FIGURING_EXTENSION_WEIGHT,
                        max_uncovered: float = 0.02, solve_pitch_mm: float | None = None, max_iter: int = 3000,
-                       spacing_mm: float | None = None, ca_margin_mm: float = 0.0, period_ms: float | None = None,
+                       spacing_mm: float | None = None, ca_margin_mm: float | None = None, period_ms: float | None = None,
                        chord_tol_mm: float | None = None, t_min_s: np.ndarray | None = None,
                        force: bool = False) -> Figuring:
     """Solve the dwell times that remove ``error_map`` along ``surface_path``.
@@ -99,8 +101,11 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
         See :func:`~polishpath.dwell.solver.solve_dwell` and :func:`~polishpath.dwell.target.build_target`.
     spacing_mm : float, optional
         Typical step, mm (default: the median step of the path).
-    ca_margin_mm : float
-        Clear aperture = the part's outline shrunk by this, mm (see :func:`build_target`).
+    ca_margin_mm : float, optional
+        Clear aperture = the part's outline shrunk by this, mm (see :func:`build_target`). Default
+        (None): :data:`~polishpath.defaults.FIGURING_CA_MARGIN_FWHMS` TIF widths (FWHM), the band next to
+        the edge that a TIF this wide cannot figure (:func:`~polishpath.dwell.target.default_ca_margin_mm`);
+        the summary says which was used.
     period_ms, chord_tol_mm : float, optional
         The machine interpolation (lowers the minimum-time feed where the path turns, see
         :func:`~polishpath.dwell.solver.minimum_times`).
@@ -127,9 +132,16 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
     auto_bias = bias_nm == "auto"
     if not auto_bias and not isinstance(bias_nm, (int, float)):
         raise FiguringError(f"bias must be a number of nm or 'auto', got {bias_nm!r}.")
+    fwhm = tif_fwhm_mm(tif)
+    ca_given = ca_margin_mm is not None
+    if not ca_given:
+        ca_margin_mm = default_ca_margin_mm(geom, fwhm, fwhms=FIGURING_CA_MARGIN_FWHMS,
+                                            min_area_share=FIGURING_CA_MIN_AREA_SHARE)
     target = build_target(error_map, geom, alignment=alignment, band_mm=reach, bias_nm=0.0 if auto_bias else float(bias_nm),
                           extension_weight=extension_weight, max_uncovered=max_uncovered,
                           ca_margin_mm=ca_margin_mm)
+    ca = {"margin_mm": float(ca_margin_mm), "source": "given" if ca_given else "default", "tif_fwhm_mm": fwhm,
+          "text": _ca_text(float(ca_margin_mm), ca_given, fwhm)}
     tmin = minimum_times(xyz, pieces, max_feed_mm_min, period_ms=period_ms, chord_tol_mm=chord_tol_mm)
     if t_min_s is not None:
         tmin = np.maximum(tmin, np.asarray(t_min_s, dtype=np.float64))
@@ -153,6 +165,7 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
     solve_kw = dict(spacing_mm=spacing, method=method, grid_ij=grid_ij, smoothness=smoothness,
                     solve_pitch_mm=solve_pitch_mm, max_iter=max_iter, centres_xy=cen)
     init_rms, init_pv = rms_pv(target.error_nm[valid])
+    part_rms, part_pv = rms_pv(target.error_nm[target.part_valid])
     floor = float(np.mean(rmin[valid])) if valid.any() else 0.0
     straight = minimum_times(xyz, pieces, max_feed_mm_min)  # the steps at the top feed, no turn
     turn_share = float(np.clip(1.0 - straight.sum() / max(float(tmin.sum()), 1e-300), 0.0, 1.0))
@@ -179,7 +192,8 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
     ideal = removal_map(target.grid, cen, sol.times_s, tif)
     ideal_rms, ideal_pv = rms_pv((target.removal_nm - ideal)[valid])
     stats = {
-        "initial_rms_nm": init_rms, "initial_pv_nm": init_pv,
+        "initial_rms_nm": init_rms, "initial_pv_nm": init_pv, "part_initial_rms_nm": part_rms,
+        "part_initial_pv_nm": part_pv,
         "uncorrectable_rms_nm": unc_rms, "passband_cutoff_per_mm": f_cut,
         "ideal_residual_rms_nm": ideal_rms, "ideal_residual_pv_nm": ideal_pv,
         "min_time_excess_nm": max(excess, 0.0), "floor_nm": floor, "bias_nm": target.params["bias_nm"],
@@ -187,7 +201,7 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
         "uncovered_fraction": target.params["uncovered_fraction"],
         "solver": sol.solver, "solver_converged": sol.converged, "solver_stats": sol.stats,
         "total_time_s": sol.total_time_s, "t_min_total_s": float(tmin.sum()),
-        "spacing_mm": spacing, "error_map": error_map.source,
+        "spacing_mm": spacing, "error_map": error_map.source, "clear_aperture": ca,
     }
     if unc_rms > 0.05 * max(init_rms, 1e-300):  # worth saying: more than the 5 % a good figuring run leaves
         stats["uncorrectable_note"] = (
@@ -196,9 +210,18 @@ def figure_dwell_times(surface: Surface, surface_path: SurfacePath, error_map: E
     prov = Provenance("dwell", sol.solver, {
         "max_feed_mm_min": float(max_feed_mm_min), "bias_nm": target.params["bias_nm"], "method": method,
         "smoothness": float(smoothness), "extension_weight": float(extension_weight),
-        "max_uncovered": float(max_uncovered), "ca_margin_mm": float(ca_margin_mm), "alignment": (alignment or Alignment()).to_dict(),
+        "max_uncovered": float(max_uncovered), "ca_margin_mm": float(ca_margin_mm),
+        "ca_margin_source": ca["source"], "alignment": (alignment or Alignment()).to_dict(),
         "tif": _tif_params(tif), "error_map": error_map.source}, seed=surface_path.provenance.seed)
     return Figuring(sol.times_s, target, sol, tif, prov, stats, ideal, fc)
+
+
+def _ca_text(margin_mm: float, given: bool, fwhm_mm: float) -> str:
+    """How the clear aperture was chosen, for the verdict line."""
+    if margin_mm <= 0:
+        return "over the whole part" + ("" if given else f" (a TIF {fwhm_mm:.3g} mm wide leaves no room for a margin)")
+    how = "as given" if given else f"by default, {margin_mm / fwhm_mm:.2g} TIF FWHM; set [error_map] ca_margin_mm"
+    return f"over the clear aperture: the part inset by {margin_mm:.3g} mm ({how})"
 
 
 def tif_peak_rate(tif) -> float:
@@ -221,7 +244,8 @@ def _with_advice(fc: FloorCheck, scale: float, pts, target0: Target, rmin, tmin,
     if auto_bias:
         ex = float(np.max((scale * rmin - target0.removal_nm)[valid])) if valid.any() else 0.0
         t = target0.with_bias(max(ex, 0.0))
-    sol = solve_dwell(pts, t, tif, scale * tmin, **solve_kw)
+    # an estimate for the message: the coarse levels only where the fft solver has them (a wide TIF, a large job)
+    sol = solve_dwell(pts, t, tif, scale * tmin, **solve_kw, coarse_only=True)
     res = (t.removal_nm - removal_map(t.grid, solve_kw["centres_xy"], sol.times_s, tif))[valid]
     rr, rp = rms_pv(res)
     sp = fc.spacing_mm / scale
@@ -277,7 +301,10 @@ def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float,
     residual = np.where(valid, fig.target.removal_nm - removal, np.nan)
     rr, rp = rms_pv(residual[valid])
     mr, _ = rms_pv(removal[valid])
+    part = fig.target.part_valid
+    prr, prp = rms_pv((fig.target.removal_nm - removal)[part])
     out = {"removal_nm": removal, "residual_nm": residual, "residual_rms_nm": rr, "residual_pv_nm": rp,
+           "part_residual_rms_nm": prr, "part_residual_pv_nm": prp,
            "removal_rms_nm": mr, "removal_mean_nm": float(np.mean(removal[valid])), "machine_time_s": float(sample_s.sum())}
     if delivered_s is not None:
         rel = (np.asarray(delivered_s, dtype=np.float64) - fig.times_s) / fig.times_s
@@ -293,6 +320,9 @@ def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]
     lead = (f"initial {st['initial_rms_nm']:.3g} nm RMS ({st['initial_pv_nm']:.3g} nm PV) -> predicted "
             f"{predicted['residual_rms_nm']:.3g} nm RMS ({predicted['residual_pv_nm']:.3g} nm PV); minimum-removal "
             f"floor {st['floor_nm']:.3g} nm")
+    ca = st.get("clear_aperture")
+    if ca:
+        lead += f"; {ca['text']}"
     if fc is not None and fc.forced:
         lead += " (refused, written with --force)"
     return {
@@ -303,6 +333,10 @@ def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]
         "floor_advice": fc.advice.to_dict() if fc is not None and fc.advice is not None else None,
         "initial_rms_nm": st["initial_rms_nm"], "initial_pv_nm": st["initial_pv_nm"],
         "residual_rms_nm": predicted["residual_rms_nm"], "residual_pv_nm": predicted["residual_pv_nm"],
+        "clear_aperture": ca,
+        "part_initial_rms_nm": st.get("part_initial_rms_nm"), "part_initial_pv_nm": st.get("part_initial_pv_nm"),
+        "part_residual_rms_nm": predicted.get("part_residual_rms_nm"),
+        "part_residual_pv_nm": predicted.get("part_residual_pv_nm"),
         "residual_model": "machine-timed: the smoothed path's samples at the interpolation period",
         "ideal_residual_rms_nm": st["ideal_residual_rms_nm"],
         "uncorrectable_rms_nm": st["uncorrectable_rms_nm"], "passband_cutoff_per_mm": st["passband_cutoff_per_mm"],
@@ -314,7 +348,8 @@ def figuring_summary(fig: Figuring, predicted: dict[str, Any]) -> dict[str, Any]
         "solver_detail": fig.solution.stats.get("method_detail"), "solver_iterations": fig.solution.stats.get("iterations"),
         "solver_message": fig.solution.stats.get("message"),
         "solver_relative_residual": fig.solution.stats.get("relative_residual"),
-        "solve_seconds": fig.solution.stats.get("seconds"),
+        "solve_seconds": fig.solution.stats.get("seconds"), "solve_cpu_seconds": fig.solution.stats.get("cpu_seconds"),
+        "solver_coarse_levels": fig.solution.stats.get("coarse_levels"),
         "bias_nm": st["bias_nm"], "bias_mode": st["bias_mode"], "min_time_excess_nm": st["min_time_excess_nm"],
         "t_min_total_s": st["t_min_total_s"], "points_at_minimum_share": fig.solution.stats.get("bound_active_share"),
         "uncovered_fraction": st["uncovered_fraction"], "error_map": st["error_map"],

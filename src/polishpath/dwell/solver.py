@@ -42,6 +42,10 @@ TIF_CUTOFF = 1e-4
 #: delivers a region's time badly next to a much shorter one (docs/figuring.md), and on the test case the
 #: machine-timed residual is 3.0 nm RMS at 0 against 1.45 nm at 0.1 (the model's own: 1.27 and 1.40 nm)
 DEFAULT_SMOOTHNESS = 0.1
+#: the fft solver starts from the solve on a lattice of twice the spacing while that spacing is at most the TIF's
+#: FWHM over this (the coarser lattice still resolves the TIF), and the path has at least COARSE_MIN_POINTS points
+COARSE_SPACINGS_PER_FWHM = 8.0
+COARSE_MIN_POINTS = 5000
 #: most non-zeros of the sparse influence matrix (memory: 12 bytes each)
 MAX_NNZ = 40_000_000
 
@@ -117,6 +121,20 @@ def tif_reach_mm(tif) -> float:
         off = math.hypot(*tif.params.get("offset_mm", (0.0, 0.0)))
         return float(tif.params["sigma_mm"] * math.sqrt(2 * math.log(1 / TIF_CUTOFF)) + off)
     return float(tif.radius_mm)
+
+
+def tif_fwhm_mm(tif) -> float:
+    """The TIF's full width at half maximum, mm: the diameter of the disc as large as the area where the rate is
+    at least half its peak (exact for a Gaussian; a rotating or measured TIF is sampled at 1/100 of its reach)."""
+    if getattr(tif, "kind", None) == "gaussian":
+        return float(tif.params["sigma_mm"] * 2.0 * math.sqrt(2.0 * math.log(2.0)))
+    r = tif_reach_mm(tif)
+    h = r / 100.0
+    o = np.arange(-100, 101) * h
+    X, Y = np.meshgrid(o, o)
+    k = tif_rate(tif, X.ravel(), Y.ravel())
+    area = float(np.count_nonzero(k >= 0.5 * k.max())) * h * h if k.max() > 0 else 0.0
+    return 2.0 * math.sqrt(area / math.pi)
 
 
 def minimum_times(points_xyz: np.ndarray, pieces: np.ndarray, max_feed_mm_min: float, *,
@@ -243,7 +261,7 @@ def lattice_of(points_xy: np.ndarray, grid_ij: np.ndarray | None, tol: float = 1
 def solve_dwell(points_xy: np.ndarray, target: Target, tif, t_min_s: np.ndarray, *, spacing_mm: float,
                 method: str = "auto", grid_ij: np.ndarray | None = None, smoothness: float = DEFAULT_SMOOTHNESS,
                 solve_pitch_mm: float | None = None, max_iter: int = 3000, tol: float = 1e-3,
-                centres_xy: np.ndarray | None = None) -> DwellSolution:
+                centres_xy: np.ndarray | None = None, coarse_only: bool = False) -> DwellSolution:
     """Solve non-negative dwell times (>= ``t_min_s``) whose removal matches ``target``.
 
     Parameters
@@ -270,6 +288,9 @@ def solve_dwell(points_xy: np.ndarray, target: Target, tif, t_min_s: np.ndarray,
     centres_xy : (N, 2) float, optional
         Where each point's time is spent, mm: the time centroid of its region
         (:func:`~polishpath.dwell.delivery.region_centroids`); default the points.
+    coarse_only : bool
+        ``fft`` with a coarse start (a TIF many spacings wide): return the coarse levels' times spread onto
+        the points without refining them (an estimate, e.g. for a refusal's advice); otherwise ignored.
 
     Returns
     -------
@@ -289,12 +310,13 @@ def solve_dwell(points_xy: np.ndarray, target: Target, tif, t_min_s: np.ndarray,
         raise FiguringError("the fft dwell solver needs dwell points on a square lattice in x, y (a flat part).",
                             "Use --dwell-solver lsq (or auto) for this path.")
     use_fft = method == "fft" or (method == "auto" and lat is not None)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     if use_fft:
-        sol = _solve_fft(pts, cen, np.asarray(grid_ij), lat, target, tif, tmin, spacing_mm, smoothness, max_iter, tol)
+        sol = _solve_fft(pts, cen, np.asarray(grid_ij), lat, target, tif, tmin, spacing_mm, smoothness, max_iter, tol,
+                         coarse_only)
     else:
         sol = _solve_lsq(pts, cen, target, tif, tmin, spacing_mm, smoothness, solve_pitch_mm, max_iter, tol)
-    return replace(sol, stats={**sol.stats, "seconds": time.perf_counter() - t0,
+    return replace(sol, stats={**sol.stats, "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
                                "bound_active_share": float(np.mean(sol.times_s <= tmin * (1 + 1e-9) + 1e-15))})
 
 
@@ -370,7 +392,8 @@ def _kernel_on(tif, h):
     return tif_rate(tif, kj.ravel() * h, ki.ravel() * h).reshape(2 * Hk + 1, 2 * Hk + 1)
 
 
-def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_iter, tol) -> DwellSolution:
+def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_iter, tol,
+               coarse_only=False) -> DwellSolution:
     from scipy import fft, ndimage
 
     c, M = lat
@@ -443,6 +466,21 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
         cst = wcost(t)
         if best is None or cst < best[0]:
             best = (cst, t, gamma)
+    coarse = None
+    if len(pts) >= COARSE_MIN_POINTS and 2.0 * s <= tif_fwhm_mm(tif) / COARSE_SPACINGS_PER_FWHM:
+        # coarse to fine: the same problem on the lattice of twice the spacing (itself solved so, recursively)
+        # gives the first times where the TIF is many spacings wide; far fewer iterations here (docs/figuring.md)
+        coarse = _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol)
+        cst = wcost(coarse[0])
+        if coarse_only:
+            nfit = max(int((w > 0).sum()), 1)
+            return DwellSolution(coarse[0], tmin, "fft", True, {
+                "iterations": 0, "message": "coarse levels only (not refined on this lattice)", "status": 3,
+                "relative_residual": math.sqrt(cst / max(float(np.sum((w * b) ** 2)), 1e-300)),
+                "fit_rms_nm": math.sqrt(cst / nfit), "lattice_spacing_mm": s, "coarse_levels": coarse[1],
+                "method_detail": "coarse levels of the fft solve only"})
+        if cst < best[0]:
+            best = (cst, coarse[0], float("nan"))
     _, x0, gamma = best
     lam = smoothness * float(K.max())
     D = neighbour_differences(pts, spacing) if lam > 0 else None
@@ -460,9 +498,43 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
              "relative_residual_change_30": res.rho_change,
              "threshold_gamma": float(gamma), "fit_rms_nm": float(math.sqrt(wcost(t) / nfit)),
              "lattice_spacing_mm": s, "lattice_shape": [ni, nj], "smoothness_lambda": lam,
+             "coarse_levels": [] if coarse is None else coarse[1],
              "method_detail": "RIFTA-style thresholded inverse filter for the first times, then "
                               "L-BFGS-B (bounds t >= t_min, Jacobi-scaled) with the influence applied as an FFT convolution"}
     return DwellSolution(t, tmin, "fft", bool(res.success), stats)
+
+
+def _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol):
+    """First times for the lattice ``c + ij @ M`` from the problem solved on the lattice of twice the spacing.
+
+    Each coarse node stands for the points whose ``ij // 2`` it is: its least time is theirs summed, its time
+    spreads back to them as a density (time per point) interpolated bilinearly between the coarse nodes. The
+    smoothness weight is scaled so that the same smooth times cost the same (a coarse time is 4 fine ones,
+    its differences span 2 steps, a quarter as many pixels fit). Returns (times (N,), the levels' figures).
+    """
+    from scipy import ndimage
+
+    cij = np.floor_divide(ij, 2)
+    key, inv, count = np.unique(cij, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    tmin_c = np.bincount(inv, weights=tmin, minlength=len(key))
+    # the coarse node (I, J) sits at the centre of the fine nodes (2I .. 2I+1, 2J .. 2J+1) it stands for
+    Mc, cc = 2.0 * M, c + np.array([0.5, 0.5]) @ M
+    xy_c = cc + key.astype(np.float64) @ Mc
+    sol = _solve_fft(xy_c, xy_c, key, (cc, Mc), target, tif, tmin_c, 2.0 * math.sqrt(abs(np.linalg.det(M))),
+                     smoothness / 8.0, max_iter, tol)
+    k0 = key.min(axis=0)
+    shape = tuple(key.max(axis=0) - k0 + 1)
+    dens = np.zeros(shape)
+    have = np.zeros(shape, dtype=bool)
+    dens[key[:, 0] - k0[0], key[:, 1] - k0[1]] = sol.times_s / count
+    have[key[:, 0] - k0[0], key[:, 1] - k0[1]] = True
+    dens = conv_fill(dens, have.astype(np.float64))
+    f = (ij - 0.5) / 2.0 - k0  # a fine node's coarse index
+    t = ndimage.map_coordinates(dens, [f[:, 0], f[:, 1]], order=1, mode="nearest")
+    level = {"lattice_spacing_mm": float(2.0 * math.sqrt(abs(np.linalg.det(M)))), "points": int(len(key)),
+             "iterations": int(sol.stats["iterations"]), "relative_residual": sol.stats["relative_residual"]}
+    return np.maximum(t, tmin), [level, *sol.stats.get("coarse_levels", [])]
 
 
 def _lattice_splat(cen, c, M, i0, j0, ni, nj):

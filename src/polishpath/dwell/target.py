@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import FIGURING_EXTENSION_WEIGHT
 from ..errors import FiguringError
 from .errormap import Alignment, ErrorMap, check_coverage, sample_error
 
@@ -63,7 +64,9 @@ class Target:
         Fit weight: 1 on measured aperture pixels, ``extension_weight`` on the
         extension, 0 elsewhere.
     params : dict
-        ``min_error_nm``, ``bias_nm``, ``uncovered_fraction``, ``extension``.
+        ``min_error_nm``, ``bias_nm``, ``uncovered_fraction``, ``extension``, ``ca_margin_mm``.
+    on_part : (ny, nx) bool, optional
+        Pixels on the part (its outline seen along z, before the clear-aperture margin).
     """
 
     grid: Grid
@@ -72,6 +75,7 @@ class Target:
     removal_nm: np.ndarray
     weight: np.ndarray
     params: dict[str, Any] = field(default_factory=dict)
+    on_part: np.ndarray | None = None
 
     @property
     def valid(self) -> np.ndarray:
@@ -81,7 +85,35 @@ class Target:
     def with_bias(self, extra_nm: float) -> Target:
         """The same target with ``extra_nm`` more uniform removal."""
         p = dict(self.params, bias_nm=self.params.get("bias_nm", 0.0) + extra_nm)
-        return Target(self.grid, self.error_nm, self.inside, self.removal_nm + extra_nm, self.weight, p)
+        return Target(self.grid, self.error_nm, self.inside, self.removal_nm + extra_nm, self.weight, p, self.on_part)
+
+    @property
+    def part_valid(self) -> np.ndarray:
+        """Measured pixels on the whole part (the clear aperture and the margin around it)."""
+        part = self.inside if self.on_part is None else (self.on_part | self.inside)
+        return part & np.isfinite(self.error_nm)
+
+
+def default_ca_margin_mm(aperture, tif_fwhm_mm: float, *, fwhms: float = 1.0, min_area_share: float = 0.25) -> float:
+    """The clear-aperture margin used when none is given, mm: ``fwhms`` TIF widths (FWHM) inside the part's edge.
+
+    Within about one FWHM of the edge a dwell point has part of its footprint off the part, and that band
+    cannot be figured like the inside (docs/figuring.md, "Where the residual comes from"); a shop quotes the
+    residual over the clear aperture, which the part exceeds by such a margin. On a part so small that the
+    margin would leave less than ``min_area_share`` of its area, the margin is halved until it leaves that much.
+
+    Parameters
+    ----------
+    aperture : shapely geometry
+        The part's outline in x, y (:func:`aperture_geometry`).
+    tif_fwhm_mm : float
+        The TIF's full width at half maximum, mm.
+    """
+    area = float(aperture.area)
+    m = fwhms * float(tif_fwhm_mm)
+    while m > 1e-3 * math.sqrt(area) and float(aperture.buffer(-m).area) < min_area_share * area:
+        m *= 0.5
+    return m if m > 1e-3 * math.sqrt(area) else 0.0
 
 
 def aperture_geometry(vertices: np.ndarray, faces: np.ndarray):
@@ -119,7 +151,7 @@ def inside_geometry(geom, xy: np.ndarray) -> np.ndarray:
 
 
 def build_target(emap: ErrorMap, aperture, *, alignment: Alignment | None = None, band_mm: float,
-                 pitch_mm: float | None = None, bias_nm: float = 0.0, extension_weight: float = 0.2,
+                 pitch_mm: float | None = None, bias_nm: float = 0.0, extension_weight: float = FIGURING_EXTENSION_WEIGHT,
                  blend_sigma_mm: float | None = None, max_uncovered: float = 0.02, ca_margin_mm: float = 0.0) -> Target:
     """Read the error map over the part and turn it into the removal wanted.
 
@@ -205,7 +237,7 @@ def build_target(emap: ErrorMap, aperture, *, alignment: Alignment | None = None
               "extension": {"method": "nearest measured value + Gaussian blend", "band_mm": float(band_mm),
                             "weight": float(extension_weight)}, "ca_margin_mm": float(ca_margin_mm),
               "alignment": al.to_dict(), "grid": grid.to_dict()}
-    return Target(grid, err, inside, removal, weight, params)
+    return Target(grid, err, inside, removal, weight, params, on_part)
 
 
 def rms_pv(values: np.ndarray) -> tuple[float, float]:
