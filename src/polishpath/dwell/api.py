@@ -244,7 +244,8 @@ def _with_advice(fc: FloorCheck, scale: float, pts, target0: Target, rmin, tmin,
     if auto_bias:
         ex = float(np.max((scale * rmin - target0.removal_nm)[valid])) if valid.any() else 0.0
         t = target0.with_bias(max(ex, 0.0))
-    # an estimate for the message: the coarse levels only where the fft solver has them (a wide TIF, a large job)
+    # an estimate for the message: where the fft solver has coarse levels (a wide TIF, a large job), their times
+    # refined by a few iterations only
     sol = solve_dwell(pts, t, tif, scale * tmin, **solve_kw, coarse_only=True)
     res = (t.removal_nm - removal_map(t.grid, solve_kw["centres_xy"], sol.times_s, tif))[valid]
     rr, rp = rms_pv(res)

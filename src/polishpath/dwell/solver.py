@@ -46,6 +46,8 @@ DEFAULT_SMOOTHNESS = 0.1
 #: FWHM over this (the coarser lattice still resolves the TIF), and the path has at least COARSE_MIN_POINTS points
 COARSE_SPACINGS_PER_FWHM = 8.0
 COARSE_MIN_POINTS = 5000
+#: ... and an estimate (``coarse_only``) refines the coarse levels' times by this many iterations at most
+ESTIMATE_ITERATIONS = 30
 #: most non-zeros of the sparse influence matrix (memory: 12 bytes each)
 MAX_NNZ = 40_000_000
 
@@ -289,8 +291,9 @@ def solve_dwell(points_xy: np.ndarray, target: Target, tif, t_min_s: np.ndarray,
         Where each point's time is spent, mm: the time centroid of its region
         (:func:`~polishpath.dwell.delivery.region_centroids`); default the points.
     coarse_only : bool
-        ``fft`` with a coarse start (a TIF many spacings wide): return the coarse levels' times spread onto
-        the points without refining them (an estimate, e.g. for a refusal's advice); otherwise ignored.
+        ``fft`` with a coarse start (a TIF many spacings wide): the coarse levels' times spread onto the
+        points, refined by at most :data:`ESTIMATE_ITERATIONS` iterations (an estimate, e.g. for a refusal's
+        advice); otherwise ignored.
 
     Returns
     -------
@@ -472,13 +475,8 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
         # gives the first times where the TIF is many spacings wide; far fewer iterations here (docs/figuring.md)
         coarse = _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol)
         cst = wcost(coarse[0])
-        if coarse_only:
-            nfit = max(int((w > 0).sum()), 1)
-            return DwellSolution(coarse[0], tmin, "fft", True, {
-                "iterations": 0, "message": "coarse levels only (not refined on this lattice)", "status": 3,
-                "relative_residual": math.sqrt(cst / max(float(np.sum((w * b) ** 2)), 1e-300)),
-                "fit_rms_nm": math.sqrt(cst / nfit), "lattice_spacing_mm": s, "coarse_levels": coarse[1],
-                "method_detail": "coarse levels of the fft solve only"})
+        if coarse_only:  # an estimate: the coarse levels' times, refined by a few iterations only
+            best, max_iter = (-1.0, coarse[0], float("nan")), min(max_iter, ESTIMATE_ITERATIONS)
         if cst < best[0]:
             best = (cst, coarse[0], float("nan"))
     _, x0, gamma = best
@@ -507,8 +505,9 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
 def _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol):
     """First times for the lattice ``c + ij @ M`` from the problem solved on the lattice of twice the spacing.
 
-    Each coarse node stands for the points whose ``ij // 2`` it is: its least time is theirs summed, its time
-    spreads back to them as a density (time per point) interpolated bilinearly between the coarse nodes. The
+    Each coarse node stands for the points whose ``ij // 2`` it is: its least time is theirs summed, and what
+    its time adds over that spreads back to them as a density (extra time per point) interpolated bilinearly
+    between the coarse nodes, on top of each point's own least time. The
     smoothness weight is scaled so that the same smooth times cost the same (a coarse time is 4 fine ones,
     its differences span 2 steps, a quarter as many pixels fit). Returns (times (N,), the levels' figures).
     """
@@ -527,14 +526,16 @@ def _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol):
     shape = tuple(key.max(axis=0) - k0 + 1)
     dens = np.zeros(shape)
     have = np.zeros(shape, dtype=bool)
-    dens[key[:, 0] - k0[0], key[:, 1] - k0[1]] = sol.times_s / count
+    # what a coarse node adds over its least time, per point: spread back over the points' own least times
+    # (these differ point to point, at the path's turns most, so a plain time density would add to them)
+    dens[key[:, 0] - k0[0], key[:, 1] - k0[1]] = np.maximum(sol.times_s - tmin_c, 0.0) / count
     have[key[:, 0] - k0[0], key[:, 1] - k0[1]] = True
     dens = conv_fill(dens, have.astype(np.float64))
     f = (ij - 0.5) / 2.0 - k0  # a fine node's coarse index
     t = ndimage.map_coordinates(dens, [f[:, 0], f[:, 1]], order=1, mode="nearest")
     level = {"lattice_spacing_mm": float(2.0 * math.sqrt(abs(np.linalg.det(M)))), "points": int(len(key)),
              "iterations": int(sol.stats["iterations"]), "relative_residual": sol.stats["relative_residual"]}
-    return np.maximum(t, tmin), [level, *sol.stats.get("coarse_levels", [])]
+    return tmin + np.maximum(t, 0.0), [level, *sol.stats.get("coarse_levels", [])]
 
 
 def _lattice_splat(cen, c, M, i0, j0, ni, nj):

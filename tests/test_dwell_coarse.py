@@ -1,0 +1,67 @@
+"""The fft solver's coarse-to-fine start (issue 28, item 4): under a TIF many spacings wide the times solved on
+the lattice of twice the spacing start the fine solve, which then needs far fewer iterations for the same
+residual."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+
+import polishpath.dwell.solver as solver
+from polishpath.dwell import ErrorMap, build_target, gaussian_tif, minimum_times, removal_map, rms_pv, solve_dwell
+
+
+@pytest.fixture(scope="module")
+def problem():
+    spacing, radius = 0.5, 22.0
+    h = int(math.ceil(radius / spacing))
+    I, J = np.mgrid[-h:h + 1, -h:h + 1]
+    ij = np.column_stack([I.ravel(), J.ravel()])
+    xy = ij[:, ::-1] * spacing
+    keep = np.hypot(xy[:, 0], xy[:, 1]) <= radius
+    ij, xy = ij[keep], xy[keep]
+    x = np.linspace(-1.05 * radius, 1.05 * radius, 301)
+    X, Y = np.meshgrid(x, x)
+    r, th = np.hypot(X, Y) / radius, np.arctan2(Y, X)
+    z = 20 * (2 * r**2 - 1) + 12 * r**2 * np.cos(2 * th) + 8 * (3 * r**3 - 2 * r) * np.cos(th)
+    tif = gaussian_tif(10.0, fwhm_mm=10.0)  # 20 spacings: one coarse level (1 mm <= 10 / 8 < 2 mm)
+    target = build_target(ErrorMap.centred(z, x[1] - x[0]), shapely.Point(0, 0).buffer(radius + 0.1, 256),
+                          band_mm=solver.tif_reach_mm(tif), ca_margin_mm=4.0, extension_weight=0.05)
+    tmin = minimum_times(np.column_stack([xy, np.zeros(len(xy))]), np.array([0, len(xy)]), 3000.0)
+    target = target.with_bias(max(float(np.max((removal_map(target.grid, xy, tmin, tif) - target.removal_nm)[target.valid])), 0.0))
+    return xy, ij, target, tif, tmin
+
+
+def _residual(problem, sol):
+    xy, _, target, tif, _ = problem
+    return rms_pv((target.removal_nm - removal_map(target.grid, xy, sol.times_s, tif))[target.valid])[0]
+
+
+def test_coarse_start_gives_the_same_residual_in_fewer_fine_iterations(problem, monkeypatch):
+    xy, ij, target, tif, tmin = problem
+    assert len(xy) >= solver.COARSE_MIN_POINTS
+    with_coarse = solve_dwell(xy, target, tif, tmin, spacing_mm=0.5, method="fft", grid_ij=ij)
+    monkeypatch.setattr(solver, "COARSE_MIN_POINTS", 10**12)
+    without = solve_dwell(xy, target, tif, tmin, spacing_mm=0.5, method="fft", grid_ij=ij)
+    assert [lv["lattice_spacing_mm"] for lv in with_coarse.stats["coarse_levels"]] == pytest.approx([1.0])
+    assert without.stats["coarse_levels"] == []
+    assert with_coarse.converged and without.converged
+    assert with_coarse.stats["iterations"] < 0.7 * without.stats["iterations"]
+    init = rms_pv(target.error_nm[target.valid])[0]
+    a, b = _residual(problem, with_coarse), _residual(problem, without)
+    assert a <= b + 0.002 * init, (a, b, init)
+    assert (with_coarse.times_s >= tmin).all()
+
+
+def test_coarse_only_is_an_estimate_near_the_full_solve(problem):
+    xy, ij, target, tif, tmin = problem
+    est = solve_dwell(xy, target, tif, tmin, spacing_mm=0.5, method="fft", grid_ij=ij, coarse_only=True)
+    full = solve_dwell(xy, target, tif, tmin, spacing_mm=0.5, method="fft", grid_ij=ij)
+    assert 0 < est.stats["iterations"] <= solver.ESTIMATE_ITERATIONS < full.stats["iterations"]
+    assert (est.times_s >= tmin).all()
+    init = rms_pv(target.error_nm[target.valid])[0]
+    assert _residual(problem, est) <= _residual(problem, full) + 0.02 * init
+    assert est.total_time_s == pytest.approx(full.total_time_s, rel=0.05)
