@@ -47,6 +47,10 @@ def shared_mesh():
 
 _WARM_UP = [sys.executable, "-m", "polishpath", "plan", "hemisphere:R=12,triangles=700", "--spacing", "1",
             "--seed", "8", "--no-report", "-q", "-o"]
+# the warm-up jobs run through this script, which also writes the census of the kernels' signatures that
+# tests/test_kernel_signatures.py checks (when the warm-up compiled them all, as on a fresh checkout; it then
+# need not compile them again on a cold cache of its own). The folder is named in POLISHPATH_WARM_UP_CENSUS.
+_CENSUS_SCRIPT = Path(__file__).resolve().parent / "_kernel_census.py"
 # The same job with the raster pattern, at the same time on the second core (which idles while the
 # first job compiles, one kernel after another): it is through the planner in a few seconds and
 # compiles the smoothing, metrics and writer kernels while the first is still in the pseudo-random
@@ -81,7 +85,10 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     env = dict(os.environ, PYTHONPATH=str(REPO / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""))
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="polishpath-warm-up-") as d:
-        jobs = [subprocess.Popen([*cmd, str(Path(d) / f"out{i}")], stdout=subprocess.DEVNULL,
+        census = Path(tempfile.mkdtemp(prefix="polishpath-warm-up-census-"))
+        os.environ["POLISHPATH_WARM_UP_CENSUS"] = str(census)  # before the workers start: they inherit it
+        jobs = [subprocess.Popen([sys.executable, str(_CENSUS_SCRIPT), str(census / f"census{i}.json"), *cmd[3:],
+                                  str(Path(d) / f"out{i}")], stdout=subprocess.DEVNULL,
                                  stderr=subprocess.PIPE, text=True, env=env)
                 for i, cmd in enumerate((_WARM_UP, _WARM_UP_SECOND))]
         for job in jobs:
@@ -103,3 +110,12 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
     """Say how long the numba warm-up jobs took before the workers started (not in pytest's "in N s")."""
     if _WARM_UP_SECONDS:
         terminalreporter.write_line(f"numba warm-up jobs before the workers: {_WARM_UP_SECONDS[0]:.1f} s")
+
+
+def pytest_unconfigure(config) -> None:
+    """The warm-up jobs' census folder goes when the run that made it ends (not in a worker)."""
+    census = os.environ.get("POLISHPATH_WARM_UP_CENSUS")
+    if census and not hasattr(config, "workerinput") and _WARM_UP_SECONDS:
+        import shutil
+
+        shutil.rmtree(census, ignore_errors=True)
