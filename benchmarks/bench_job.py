@@ -82,16 +82,19 @@ fileio.atomic_open = _timed
 import threading
 import polishpath.progress as progress
 _peaks = {}
+_cpu = {}
 _stage_cm = progress.stage
 
 @contextlib.contextmanager
 def _labelled(label, timings=None, key=None):
     prev, _stage[0] = _stage[0], key or label
+    c0 = time.process_time()
     try:
         with _stage_cm(label, timings, key):
             yield
     finally:
         _stage[0] = prev
+        _cpu[key or label] = _cpu.get(key or label, 0.0) + time.process_time() - c0
 
 progress.stage = _labelled
 
@@ -110,7 +113,8 @@ try:
     main()
 finally:
     with open(record_path, "w") as fh:
-        json.dump({"writers": _records, "rss_peaks": _peaks}, fh)
+        json.dump({"writers": _records, "rss_peaks": _peaks, "cpu_s": _cpu,
+                   "cpu_total_s": time.process_time()}, fh)
 """
 
 
@@ -173,7 +177,8 @@ def run_job(n_points: float, work: Path, extra: list[str]) -> dict:
             w["file"] = str(out / Path(*rel.parts[1:]))
     return {"n_target": n_points, "radius": radius, "wall": wall, "load": load, "out": out, "summary": summary,
             "writers": writers, "rss_gb": usage.ru_maxrss * 1024 / 1e9, "cpu": usage.ru_utime + usage.ru_stime,
-            "rss_peaks": {k: v / 1e9 for k, v in record.get("rss_peaks", {}).items()}}
+            "rss_peaks": {k: v / 1e9 for k, v in record.get("rss_peaks", {}).items()},
+            "stage_cpu": record.get("cpu_s", {})}
 
 
 def show(r: dict) -> list[str]:
@@ -186,7 +191,12 @@ def show(r: dict) -> list[str]:
           f"load average {r['load']:.1f} on {os.cpu_count()} cores) ==")
     print(f"  whole job {r['wall']:.1f} s (child wall time, Python start-up and imports included), "
           f"{r['cpu']:.1f} s of CPU (what a loaded machine does not inflate as much); peak RSS {r['rss_gb']:.2f} GB")
-    print("  stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in tim.items()))
+    print("  stages (wall): " + ", ".join(f"{k} {v:.2f} s" for k, v in tim.items()))
+    cpu = r.get("stage_cpu") or {}
+    if cpu:
+        rest = r["cpu"] - sum(cpu.values())
+        print("  stages (CPU of the job's process): " + ", ".join(f"{k} {v:.2f} s" for k, v in cpu.items())
+              + f"; outside the stages (start-up, imports, the CLI) {rest:.2f} s")
     peaks = r.get("rss_peaks") or {}
     if peaks:
         print("  peak RSS by stage (sampled every 50 ms): " + ", ".join(f"{k} {v:.2f} GB" for k, v in peaks.items()))

@@ -1,9 +1,10 @@
 """Read modal G-code back with two third-party parsers: gcodeparser and pygcode.
 
 Both give the moves as a controller runs them: the end point of every move
-(axis words are modal: a word left out keeps its value), whether it was a feed
-(G01, or a G02 / G03 arc in the XY plane with its centre from I J, incremental)
-or a rapid (G00) move, the F in force and whether G93 (inverse time) was in
+(axis words are modal: a word left out keeps its value; G90 absolute or G91
+incremental, modal), whether it was a feed (G01, or a G02 / G03 arc in the XY
+plane with its centre from I J, incremental, or from its radius R: the shorter
+arc for R > 0) or a rapid (G00) move, the F in force and whether G93 (inverse time) was in
 force. ``Moves.times()`` is each feed move's time as the controller derives it:
 ``60 x length / F`` in G94 (an arc's length: the helix's, :func:`helix_lengths`),
 ``60 / F`` in G93.
@@ -86,6 +87,16 @@ class Moves:
         return np.split(idx, cuts)
 
 
+def radius_centre(start, end, r: float, turn: int) -> np.ndarray:
+    """The XY centre of an arc in radius form from ``start`` to ``end`` (3,) with radius ``r`` (> 0: the
+    shorter arc, < 0: the longer), turning counter-clockwise for ``turn`` > 0 (G03), as LinuxCNC and Fanuc
+    place it."""
+    d = np.asarray(end, float)[:2] - np.asarray(start, float)[:2]
+    c = float(np.hypot(*d))
+    h = np.sqrt(max(r * r - 0.25 * c * c, 0.0)) * np.sign(r) * np.sign(turn)
+    return 0.5 * (np.asarray(start, float)[:2] + np.asarray(end, float)[:2]) + h * np.array([-d[1], d[0]]) / c
+
+
 def _body(text: str) -> list[str]:
     return [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.startswith("(") and ln.strip() != "%"]
 
@@ -93,7 +104,7 @@ def _body(text: str) -> list[str]:
 def _moves(rows) -> Moves:
     ends, starts, feeds, invs, rapids, centres, turns = [], [], [], [], [], [], []
     pos = np.zeros(3)
-    motion, feed, inv = None, 0.0, False
+    motion, feed, inv, incremental = None, 0.0, False, False
     for gs, words in rows:
         for g in gs:
             if g in (0, 1, 2, 3):
@@ -102,18 +113,28 @@ def _moves(rows) -> Moves:
                 inv = True
             elif g == 94:
                 inv = False
+            elif g in (90, 91):
+                incremental = g == 91
         if "F" in words:
             feed = float(words["F"])
         if any(a in words for a in "XYZ"):
-            new = np.array([float(words.get(a, pos[i])) for i, a in enumerate("XYZ")])
+            if incremental:
+                new = pos + np.array([float(words.get(a, 0.0)) for a in "XYZ"])
+            else:
+                new = np.array([float(words.get(a, pos[i])) for i, a in enumerate("XYZ")])
             starts.append(pos)
             ends.append(new)
             feeds.append(feed)
             invs.append(inv)
             rapids.append(motion == 0)
             arc = motion in (2, 3)
-            centres.append(pos[:2] + [float(words.get("I", 0.0)), float(words.get("J", 0.0))] if arc else [np.nan] * 2)
-            turns.append({2: -1, 3: 1}.get(motion, 0))
+            turn = {2: -1, 3: 1}.get(motion, 0)
+            if arc and "R" in words:
+                centres.append(radius_centre(pos, new, float(words["R"]), turn))
+            else:
+                centres.append(pos[:2] + [float(words.get("I", 0.0)), float(words.get("J", 0.0))] if arc
+                               else [np.nan] * 2)
+            turns.append(turn)
             pos = new
     return Moves(np.array(ends), np.array(starts), np.array(feeds), np.array(invs, bool), np.array(rapids, bool),
                  np.array(centres, float).reshape(-1, 2), np.array(turns, np.int64))
@@ -131,9 +152,9 @@ def moves_gcodeparser(text: str) -> Moves:
             gs = [c.command[1] for c in parsed if c.command[0] == "G"]
             words = {}
             for c in parsed:
-                words.update({k: v for k, v in c.params.items() if k in "XYZFIJ"})
+                words.update({k: v for k, v in c.params.items() if k in "XYZFIJR"})
         else:
-            gs, words = [], {k: v for k, v in parse_parameters(ln).items() if k in "XYZFIJ"}
+            gs, words = [], {k: v for k, v in parse_parameters(ln).items() if k in "XYZFIJR"}
         rows.append((gs, words))
     return _moves(rows)
 
@@ -159,7 +180,10 @@ def moves_pygcode(text: str) -> Moves:
             rapids.append(motion.startswith("G00"))
             turn = -1 if motion.startswith("G02") else (1 if motion.startswith("G03") else 0)
             turns.append(turn)
-            centres.append(before[:2] + [words.get("I", 0.0), words.get("J", 0.0)] if turn else [np.nan] * 2)
+            if turn and "R" in words:
+                centres.append(radius_centre(before, after, words["R"], turn))
+            else:
+                centres.append(before[:2] + [words.get("I", 0.0), words.get("J", 0.0)] if turn else [np.nan] * 2)
     return Moves(np.array(ends), np.array(starts), np.array(feeds), np.array(invs, bool), np.array(rapids, bool),
                  np.array(centres, float).reshape(-1, 2), np.array(turns, np.int64))
 

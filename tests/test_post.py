@@ -104,6 +104,9 @@ def test_registry_lists_every_post_with_its_help():
     ({"decimals": 12}, "decimals must be a whole number"),
     ({"program_number": 0}, "program_number"),
     ({"preamble": 5}, "preamble must be text"),
+    ({"anchor_blocks": 0}, "anchor_blocks must be a whole number of blocks >= 1"),
+    ({"incremental": "yes"}, "incremental must be true or false"),
+    ({"radius_arcs": 1}, "radius_arcs must be true or false"),
 ])
 def test_bad_settings_are_refused_by_name(bad, words):
     with pytest.raises(ParameterError, match=words):
@@ -145,12 +148,15 @@ def test_linuxcnc_program_in_order(tool_path):
         p0 = tool_path.samples[a]
         assert np.abs(q0 - (p0 + 2.0 * normals[a])).max() <= 1e-4
         assert body[i + 3].startswith("G01X") and body[i + 3].endswith("F300")
-        # the path's blocks: modal words only (G01 is in force from the approach), no separator between words
+        # the path's blocks: modal words only (G01 is in force from the approach), no separator between words;
+        # G91 from the first, the last G90 (absolute, as the retract after it)
         j = i + 4
+        assert body[j].startswith("G91")
         while not body[j].startswith("G01"):
-            assert body[j][0] in "XYZF" or body[j][:2] in ("G1", "G2", "G3"), body[j]
-            assert " " not in body[j] and re.fullmatch(r"(?:[GXYZIJF]-?\d*\.?\d+)+", body[j]), body[j]
+            assert body[j][0] in "XYZF" or body[j][:2] in ("G1", "G2", "G3") or body[j][:3] in ("G90", "G91"), body[j]
+            assert " " not in body[j] and re.fullmatch(r"(?:[GXYZIJRF]-?\d*\.?\d+)+", body[j]), body[j]
             j += 1
+        assert body[j - 1].startswith("G90")
         assert j - (i + 4) < b - a - 1  # fewer blocks than samples: merged within the tolerances
         # retract along the end normal at the approach feed, back to the clearance plane
         w = _words(body[j])
@@ -717,28 +723,48 @@ def test_modal_words_parse_back_with_both_parsers_to_the_same_points(tool_path, 
             tp, kw.get("tool_radius", 0.0))
         for (pts, *_), (P, *_) in zip(_path_runs(text), blocks):
             assert pts.shape == P.shape and np.abs(pts - P).max() <= RES
-    # no path block repeats a word that did not change (I J are not modal: every arc has them); the motion
-    # word only where the motion changes; G94's F changes by more than its resolution
+    # no path block repeats a word that did not change (I J or R are not modal: every arc has them, R where
+    # it is exact to the resolution); the motion word only where the motion changes; G91 (incremental) and
+    # G90 only where they change, each incremental word nonzero; G94's F changes by more than its resolution
     text = _gcode(tool_path)
-    pos, f, mode = {}, None, None
+    pos, f, mode, inc = {}, None, None, False
+    n_r = n_ij = n_abs = 0
+    anchor = False  # the block before was a G90 block: this one repeats its motion word and F (a restart point)
     for ln in _lines(text):
-        words = {k: v for k, v in _words(ln).items() if k in "XYZFIJG"}
+        words = {k: v for k, v in _words(ln).items() if k in "XYZFIJR"}
+        gs = [int(g) for g in re.findall(r"G(\d+)", ln)]
         if ln.startswith(("G01", "G00")):
             mode = "G01" if ln.startswith("G01") else None
-        elif ln[0] in "XYZF" or re.match(r"G[123][XYZF]", ln):
-            if ln[0] == "G":
-                g = ln[:2]
-                assert g in ("G1", "G2", "G3") and g != {"G01": "G1"}.get(mode, mode), ln
-                mode = g
-            assert ("I" in words and "J" in words) == (mode in ("G2", "G3")), ln
+            assert not inc, ln  # the approach and retract are absolute
+            pos.update({k: v for k, v in words.items() if k in "XYZ"})
+            anchor = False
+        elif ln[0] in "XYZF" or re.match(r"(G9[01])?G[123][XYZF]|G9[01][XYZF]", ln):
+            for g in gs:
+                if g in (90, 91):
+                    assert (g == 91) != inc, ln  # written only where it changes
+                    inc = g == 91
+                    n_abs += g == 90
+                else:
+                    assert g in (1, 2, 3) and (f"G{g}" != {"G01": "G1"}.get(mode, mode) or anchor), ln
+                    mode = f"G{g}"
+            if anchor:
+                assert 91 in gs and len(gs) == 2 and "F" in words, ln
+            arc = mode in ("G2", "G3")
+            assert (("I" in words and "J" in words) != ("R" in words)) if arc else not set("IJR") & set(words), ln
+            n_r += "R" in words
+            n_ij += "I" in words
+            if 90 in gs:
+                assert set("XYZ") <= set(words), ln  # a G90 block's position is whole
             for axis in "XYZ":
                 if axis in words:
-                    assert words[axis] != pos.get(axis), ln
-            if "F" in words:  # the block's own feed was off the F in force by more than FEED_RES; F is rounded
-                step = 10.0 ** np.floor(np.log10(2 * FEED_RES * words["F"]))  # to the digits FEED_RES needs
+                    assert (words[axis] != 0) if inc else (words[axis] != pos.get(axis) or 90 in gs), ln
+                    pos[axis] = pos[axis] + words[axis] if inc else words[axis]
+            if "F" in words and not anchor:  # the block's own feed was off the F in force by more than FEED_RES;
+                step = 10.0 ** np.floor(np.log10(2 * FEED_RES * words["F"]))  # F rounded to the digits it needs
                 assert abs(words["F"] - f) > FEED_RES * f - 0.5 * step and words["F"] != f, ln
-        pos.update({k: v for k, v in words.items() if k in "XYZ"})
+            anchor = 90 in gs
         f = words.get("F", f)
+    assert n_r > n_ij > 0 and n_abs >= len(_pieces_of(tool_path))  # radius form mostly; a G90 block per piece
     body = _lines(text)
     assert sum(ln.startswith("G01") for ln in body) == 2 * len(_pieces_of(tool_path))  # the approach, the retract
     assert any(re.match("G2X", ln) for ln in body) and any(re.match("G3X", ln) for ln in body)
@@ -898,3 +924,60 @@ def test_fanuc_keeps_the_point_of_whole_numbers(tool_path):
     assert re.search(r"\nG00Z\d+\.\d*\n", text)
     words = re.findall(r"[XYZIJ](-?\d*\.?\d*)", "\n".join(_lines(text)))
     assert words and all("." in w or float(w) == 0 for w in words)
+
+
+@pytest.mark.parametrize("post", ["linuxcnc", "fanuc"])
+def test_incremental_words_and_radius_arcs_run_the_same_path_as_absolute_centre_words(flat_path, tool_path, post):
+    """G91 words with G90 anchors and arcs in radius form (the defaults, issue 29's 60 bytes per dwell point):
+    both parsers read the same block ends as the absolute I J program (to float sums of the rounded words:
+    no rounding accumulates), the arcs' centres within the written resolution's effect, the same times; a
+    G90 block every anchor_blocks blocks and as each piece's last; read from any G90 block on (a restart
+    there), the positions are the same."""
+    from gcode_helpers import radius_centre
+
+    mode = {"mode": "linear"} if post == "fanuc" else {}
+    # gcodeparser reads no Fanuc whole number with its point ("Z7.")
+    parsers = (moves_pygcode,) if post == "fanuc" else (moves_gcodeparser, moves_pygcode)
+    for tp in (flat_path, tool_path):
+        new = io.StringIO()
+        info = write_gcode(tp, new, post=post, anchor_blocks=40, **mode)
+        old = io.StringIO()
+        ref = write_gcode(tp, old, post=post, incremental=False, radius_arcs=False, **mode)
+        new, old = new.getvalue(), old.getvalue()
+        assert "G91" not in old and "R" not in "".join(_lines(old)[5:]) and "G91" in new
+        assert info["incremental"] and not ref["incremental"]
+        assert 0 < info["radius_arc_blocks"] <= info["arc_blocks"] == ref["arc_blocks"] and ref["radius_arc_blocks"] == 0
+        assert info["motion_blocks"] == ref["motion_blocks"] and info["bytes"] < 0.9 * ref["bytes"]
+        assert info["path_time_s"] == pytest.approx(ref["path_time_s"], rel=1e-5)
+        for parse in parsers:
+            a, b = parse(new), parse(old)
+            assert np.abs(a.ends - b.ends).max() <= 1e-9 and np.array_equal(a.turns, b.turns)
+            arc = a.turns != 0
+            # the radius form's centre moves by what the rounding of R and the ends allow: a few resolutions
+            # on a short arc; the path between the ends (checked against the fitted arc when written) is the same
+            assert np.abs(a.centres[arc] - b.centres[arc]).max() < 0.05
+            assert np.allclose(a.times()[~a.rapid], b.times()[~b.rapid], rtol=2e-3, atol=1e-9)
+        # the G90 anchors: every 40 blocks of a piece and its last block; the path blocks between are G91
+        body = _lines(new)
+        path = [ln for ln in body if re.match(r"G9[01]|[XYZF]|G[123][XYZ]", ln)]
+        k = 0
+        for ln in path:
+            k += 1
+            if ln.startswith("G90"):
+                k = 0
+            assert k < 40
+        # a restart after a G90 block in the middle, the tool moved to that block's end (its X Y Z are absolute
+        # and whole; the next block writes its G91, motion word and F): the same positions from there on
+        starts = [i for i, ln in enumerate(body) if ln.startswith("G90") and i + 1 < len(body)
+                  and body[i + 1].startswith("G91")]
+        cut = starts[len(starts) // 2]
+        w = _words(body[cut])
+        assert re.match(r"G91G[123]", body[cut + 1]) and "F" in body[cut + 1]
+        restart = "\n".join(body[:5]) + f"\nG00X{w['X']}Y{w['Y']}Z{w['Z']}\n" + "\n".join(body[cut + 1:])
+        tail, full = parsers[0](restart), parsers[0](new)
+        n = len(tail.ends) - 1
+        assert np.abs(tail.ends[-n:] - full.ends[-n:]).max() <= 1e-9 and np.array_equal(tail.feed[-n:], full.feed[-n:])
+    # the radius form's centre: the shorter arc's, on the side the arc turns to
+    c = radius_centre(np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.0, 0.0]), 1.25, 1)
+    assert np.allclose(c, [1.0, 0.75])
+    assert np.allclose(radius_centre(np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.0, 0.0]), 1.25, -1), [1.0, -0.75])

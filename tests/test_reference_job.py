@@ -175,16 +175,18 @@ def _blocks(text: str) -> list[tuple[int, list[tuple[str, float]]]]:
 
 def _program(text: str):
     """The blocks without axis words (setup, spindle, coolant, end) and the end points (K, 3) of the
-    feed moves (G1/G2/G3, axis words modal), with their line numbers."""
+    feed moves (G1/G2/G3, axis words modal; G90 absolute, G91 incremental), with their line numbers."""
     setup, ends, lines = [], [], []
-    pos, mode = {"X": np.nan, "Y": np.nan, "Z": np.nan}, 0
+    pos, mode, incremental = {"X": np.nan, "Y": np.nan, "Z": np.nan}, 0, False
     for k, words in _blocks(text):
         axes = False
         for w, v in words:
             if w == "G" and v in (0, 1, 2, 3):
                 mode = int(v)
+            elif w == "G" and v in (90, 91):
+                incremental = v == 91
             elif w in pos:
-                pos[w], axes = v, True
+                pos[w], axes = (pos[w] + v if incremental else v), True
         if not axes:
             setup.append((k, words))
         elif mode in (1, 2, 3):

@@ -287,7 +287,8 @@ class GcodePost(PostProcessor):
                              dwell_block_ends=s.dwell_block_ends)
         return BlockMotion(seg, write, decimals=s.decimals, feed_decimals=s.feed_decimals, inverse_time=inverse,
                            feed_resolution=s.feed_resolution, feed_in_force=self.approach_feed_written(),
-                           sep=s.word_separator, styles=self.styles())
+                           sep=s.word_separator, styles=self.styles(), radius_arcs=s.radius_arcs and self.uses_arcs(),
+                           incremental=s.incremental, anchor_blocks=s.anchor_blocks)
 
     # ---------------------------------------------------------------- 5-axis (the rotary-words hook)
     def fo(self, v: float) -> str:
@@ -400,6 +401,10 @@ class GcodePost(PostProcessor):
             elif s.segmenting == "chord":
                 hdr += [("segment_chord_tol_mm", ctx["segment_tol_mm"]), ("segment_time_tol", s.time_tol),
                         ("arcs", self.uses_arcs()), ("dwell_block_ends", s.dwell_block_ends)]
+            if sp.tool_axes is None:
+                hdr += [("radius_arcs", s.radius_arcs and self.uses_arcs()), ("incremental", s.incremental)]
+                if s.incremental:
+                    hdr += [("anchor_blocks", s.anchor_blocks)]
             if feed_mode != "inverse-time":
                 hdr += [("feed_resolution", s.feed_resolution)]
         lines = [_comment(f"{k}: {v}") for k, v in hdr]
@@ -425,8 +430,14 @@ class GcodePost(PostProcessor):
         if mode == "linear" and sp.tool_axes is None:
             if self.uses_arcs():  # LinuxCNC reads at most 256 characters a line
                 lines.append(_comment("ARCS: G2/G3 helical arcs in the XY plane [G17], Z linear along the arc, "
-                                      "centre I J incremental from the arc's start; G1/G2/G3 only where the "
+                                      + ("radius R [under a half circle] where exact to the resolution, else "
+                                         if s.radius_arcs else "")
+                                      + "centre I J incremental from the arc's start; G1/G2/G3 only where the "
                                       "motion changes"))
+            if s.incremental:
+                lines.append(_comment(f"DISTANCE MODE: G91 incremental axis words inside each piece, a G90 block "
+                                      f"of absolute words every {s.anchor_blocks} blocks and at each piece's end; "
+                                      "RESTART THE PROGRAM ONLY AT A G90 BLOCK or an approach"))
             lines.append(_comment("MODAL WORDS: G01 once per piece [the approach], axis words only when they change"
                                   + ("" if feed_mode == "inverse-time" else ", F only when the feed changes by more "
                                      f"than {s.feed_resolution:g} of the F in force")))
@@ -458,7 +469,8 @@ class GcodePost(PostProcessor):
         inverse = feed_mode == "inverse-time"
         chunks = sample_chunks(tool_path) if chunks is None else chunks
         at = self.driven(tool_path, tool_radius)
-        counts = {"bytes": 0, "samples": 0, "blocks": 0, "arcs": 0, "path_s": 0.0, "pieces": 0, "axis_error_deg": 0.0}
+        counts = {"bytes": 0, "samples": 0, "blocks": 0, "arcs": 0, "radius_arcs": 0, "anchors": 0, "path_s": 0.0,
+                  "pieces": 0, "axis_error_deg": 0.0}
         with _bytes_out(file) as raw:
 
             def write(b: bytes) -> None:
@@ -497,6 +509,8 @@ class GcodePost(PostProcessor):
                 counts["blocks"] += blocks
                 counts["axis_error_deg"] = max(counts["axis_error_deg"], getattr(m, "max_axis_error_deg", 0.0))
                 counts["arcs"] += getattr(m, "arcs", 0)
+                counts["radius_arcs"] += getattr(m, "radius_arc_blocks", 0)
+                counts["anchors"] += getattr(m, "anchors", 0)
                 counts["pieces"] += 1
 
             for starts, chunk in checked_chunks(chunks, n_pieces):
@@ -550,6 +564,9 @@ class GcodePost(PostProcessor):
                 "segmenting": s.segmenting if mode == "linear" else None,
                 "segment_chord_tol_mm": ctx["segment_tol_mm"] if mode == "linear" else None,
                 "arcs": self.uses_arcs() if mode == "linear" else None, "arc_blocks": counts["arcs"],
+                "radius_arc_blocks": counts["radius_arcs"],
+                "incremental": bool(s.incremental and mode == "linear" and not rotary),
+                "absolute_blocks": counts["anchors"],
                 "time_tol": s.time_tol, "feed_resolution": s.feed_resolution,
                 "coordinate_resolution_mm": 10.0 ** -s.decimals,
                 "path_time_s": counts["path_s"], "machining_time_s": counts["path_s"] + appr_s,

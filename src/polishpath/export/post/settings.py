@@ -78,6 +78,18 @@ class PostSettings:
         With ``chord`` segmenting: helical arcs (G02/G03 in G17, Z linear along
         them, centre as incremental I J) where one fits, else G01 (default: true);
         false: G01 only.
+    radius_arcs : bool
+        Write an arc in radius form (``G2 X Y R``, one word for the two of ``I J``) where the centre the
+        controller derives from the written end points and R keeps the written arc within one resolution of
+        the fitted one (beyond the end points' own rounding) and it turns less than 171 degrees (a positive R
+        is the shorter arc, LinuxCNC's and Fanuc's rule); else ``I J`` (default: true).
+    incremental : bool
+        Inside a piece, write the axis words as G91 distances from the previous block's end (each the
+        difference of two positions rounded to the resolution: no rounding accumulates), with a G90 block of
+        absolute words every ``anchor_blocks`` blocks and as the piece's last block (default: true). A
+        program restarted mid-way must start at a G90 block; false: G90 throughout.
+    anchor_blocks : int
+        With ``incremental``: blocks from one absolute (G90) block to the next (default 500).
     dwell_block_ends : bool
         With ``chord`` segmenting: true ends a block at every dwell point; false (default) lets a block
         pass through a dwell point that lies on it (1e-9 mm before rounding, within the coordinate
@@ -124,6 +136,9 @@ class PostSettings:
     integer_point: bool = False
     segmenting: str = "chord"
     arcs: bool = True
+    radius_arcs: bool = True
+    incremental: bool = True
+    anchor_blocks: int = 500
     dwell_block_ends: bool = False
     chord_tol_mm: float | None = None
     time_tol: float = 0.01
@@ -198,7 +213,10 @@ class PostSettings:
                                                 not isinstance(self.program_number, int) or
                                                 not 1 <= self.program_number <= 9999):
             raise ParameterError(f"{where}: program_number must be 1..9999, got {self.program_number!r}.")
-        for name in ("arcs", "dwell_block_ends"):
+        a = self.anchor_blocks
+        if isinstance(a, bool) or not isinstance(a, int) or not 1 <= a <= 10**9:
+            raise ParameterError(f"{where}: anchor_blocks must be a whole number of blocks >= 1, got {a!r}.")
+        for name in ("arcs", "dwell_block_ends", "radius_arcs", "incremental"):
             if not isinstance(getattr(self, name), bool):
                 raise ParameterError(f"{where}: {name} must be true or false, got {getattr(self, name)!r}.")
         if not isinstance(self.comments, bool):
