@@ -392,7 +392,8 @@ def format_fixed(values: np.ndarray, decimals, *, letters: str | None = None, pr
     styles : int or (k,) int
         Per column, bits of :data:`NO_LEADING_ZERO`, :data:`NO_TRAILING_ZEROS`, :data:`KEEP_POINT`.
     """
-    v = np.ascontiguousarray(values, dtype=np.float64)
+    # writable (a copy of a read-only chunk): one compiled signature of fixed_point_rows, not two
+    v = np.require(values, np.float64, ("C", "W"))
     m, k = v.shape
     dec = np.broadcast_to(np.asarray(decimals, dtype=np.int64), (k,)).copy()
     let = np.zeros(k, np.uint8) if letters is None else np.frombuffer(letters.replace(" ", "\0").encode(), np.uint8).copy()
@@ -417,8 +418,8 @@ def format_fixed(values: np.ndarray, decimals, *, letters: str | None = None, pr
 
 def format_csv(ints: np.ndarray, floats: np.ndarray) -> bytes:
     """CSV rows of ``%d`` columns then ``%.17g`` columns, as bytes (see :func:`csv_rows`)."""
-    iv = np.ascontiguousarray(ints, dtype=np.int64)
-    fv = np.ascontiguousarray(floats, dtype=np.float64)
+    iv = np.require(ints, np.int64, ("C", "W"))
+    fv = np.require(floats, np.float64, ("C", "W"))
     m = len(iv)
     if m == 0:
         return b""

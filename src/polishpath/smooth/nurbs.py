@@ -395,7 +395,9 @@ def span_polynomials(curve: NurbsCurve) -> tuple[np.ndarray, np.ndarray, np.ndar
     hom = np.concatenate([curve.control_points * curve.weights[:, None], curve.weights[:, None]], axis=1)
     t = np.linspace(0.0, 1.0, p + 1)
     vinv = np.linalg.inv(np.vander(t, p + 1, increasing=True))
-    coeffs = _span_coeffs_kernel(np.ascontiguousarray(U), p, idx.astype(np.int64), np.ascontiguousarray(hom), t, vinv)
+    # a writable knot array, as _collocation_band gets: one compiled signature of _basis_one, not two
+    coeffs = _span_coeffs_kernel(np.require(U, np.float64, ("C", "W")), p, idx.astype(np.int64),
+                                 np.ascontiguousarray(hom), t, vinv)
     breaks = np.concatenate([a, b[-1:]])
     # breaks must be contiguous: with joined pieces every span start equals the previous end
     out = (breaks, coeffs, idx.astype(np.int64))
