@@ -56,12 +56,22 @@ def test_coarse_start_gives_the_same_residual_in_fewer_fine_iterations(problem, 
     assert (with_coarse.times_s >= tmin).all()
 
 
-def test_coarse_only_is_an_estimate_near_the_full_solve(problem):
+@pytest.mark.parametrize("per_fwhm, levels, tol", [(8.0, 1, 0.02), (4.0, 2, 0.05)])
+def test_coarse_only_is_an_estimate_near_the_full_solve(problem, monkeypatch, per_fwhm, levels, tol):
+    """The estimate (a refusal's advice) solves the coarsest level only; its own model's residual is near the
+    full solve's, and its times spread onto the points keep the least times and the total."""
     xy, ij, target, tif, tmin = problem
+    monkeypatch.setattr(solver, "COARSE_SPACINGS_PER_FWHM", per_fwhm)
+    monkeypatch.setattr(solver, "COARSE_MIN_POINTS", 100)
     est = solve_dwell(xy, target, tif, tmin, spacing_mm=0.5, method="fft", grid_ij=ij, coarse_only=True)
     full = solve_dwell(xy, target, tif, tmin, spacing_mm=0.5, method="fft", grid_ij=ij)
-    assert 0 < est.stats["iterations"] <= solver.ESTIMATE_ITERATIONS < full.stats["iterations"]
+    assert est.stats["iterations"] == 0 and est.stats["message"].startswith("estimate")
+    assert len(est.stats["coarse_levels"]) == levels
+    assert len(est.stats["estimate_times_s"]) < 0.3 ** levels * len(xy)  # the coarsest level's nodes
     assert (est.times_s >= tmin).all()
     init = rms_pv(target.error_nm[target.valid])[0]
-    assert _residual(problem, est) <= _residual(problem, full) + 0.02 * init
-    assert est.total_time_s == pytest.approx(full.total_time_s, rel=0.05)
+    own = rms_pv((target.removal_nm - removal_map(target.grid, est.stats["estimate_xy"], est.stats["estimate_times_s"],
+                                                  tif))[target.valid])[0]
+    # within 2 % of the initial RMS at 10 spacings per FWHM (the default rule keeps >= 8), 5 % at 5
+    assert abs(own - _residual(problem, full)) <= tol * init, (own, _residual(problem, full), init)
+    assert est.total_time_s == pytest.approx(full.total_time_s, rel=0.05 * levels)

@@ -244,10 +244,11 @@ def _with_advice(fc: FloorCheck, scale: float, pts, target0: Target, rmin, tmin,
     if auto_bias:
         ex = float(np.max((scale * rmin - target0.removal_nm)[valid])) if valid.any() else 0.0
         t = target0.with_bias(max(ex, 0.0))
-    # an estimate for the message: where the fft solver has coarse levels (a wide TIF, a large job), their times
-    # refined by a few iterations only
+    # an estimate for the message: where the fft solver has coarse levels (a wide TIF, a large job), the coarsest
+    # level's solve and its own model's residual (a fine solve would cost as much as the job's own)
     sol = solve_dwell(pts, t, tif, scale * tmin, **solve_kw, coarse_only=True)
-    res = (t.removal_nm - removal_map(t.grid, solve_kw["centres_xy"], sol.times_s, tif))[valid]
+    xy_e, t_e = sol.stats.get("estimate_xy", solve_kw["centres_xy"]), sol.stats.get("estimate_times_s", sol.times_s)
+    res = (t.removal_nm - removal_map(t.grid, xy_e, t_e, tif))[valid]
     rr, rp = rms_pv(res)
     sp = fc.spacing_mm / scale
     # only the straight part of the minimum time goes as 1 / feed: it must bring the floor down alone

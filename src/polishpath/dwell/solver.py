@@ -46,8 +46,6 @@ DEFAULT_SMOOTHNESS = 0.1
 #: FWHM over this (the coarser lattice still resolves the TIF), and the path has at least COARSE_MIN_POINTS points
 COARSE_SPACINGS_PER_FWHM = 8.0
 COARSE_MIN_POINTS = 5000
-#: ... and an estimate (``coarse_only``) refines the coarse levels' times by this many iterations at most
-ESTIMATE_ITERATIONS = 30
 #: most non-zeros of the sparse influence matrix (memory: 12 bytes each)
 MAX_NNZ = 40_000_000
 
@@ -291,9 +289,10 @@ def solve_dwell(points_xy: np.ndarray, target: Target, tif, t_min_s: np.ndarray,
         Where each point's time is spent, mm: the time centroid of its region
         (:func:`~polishpath.dwell.delivery.region_centroids`); default the points.
     coarse_only : bool
-        ``fft`` with a coarse start (a TIF many spacings wide): the coarse levels' times spread onto the
-        points, refined by at most :data:`ESTIMATE_ITERATIONS` iterations (an estimate, e.g. for a refusal's
-        advice); otherwise ignored.
+        An estimate (e.g. for a refusal's advice): ``fft`` with a coarse start (a TIF many spacings wide)
+        solves only the coarsest level and spreads its times onto the points; ``stats["estimate_xy"]`` and
+        ``["estimate_times_s"]`` are then where the times of the level solved are spent (its nodes), whose
+        removal is the estimate's model. ``lsq`` ignores it.
 
     Returns
     -------
@@ -473,10 +472,13 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
     if len(pts) >= COARSE_MIN_POINTS and 2.0 * s <= tif_fwhm_mm(tif) / COARSE_SPACINGS_PER_FWHM:
         # coarse to fine: the same problem on the lattice of twice the spacing (itself solved so, recursively)
         # gives the first times where the TIF is many spacings wide; far fewer iterations here (docs/figuring.md)
-        coarse = _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol)
+        coarse = _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol, coarse_only)
+        if coarse_only:  # an estimate: the coarsest level's solve, its times spread onto the points
+            return DwellSolution(coarse[0], tmin, "fft", True, {
+                "iterations": 0, "message": "estimate: the coarsest level only", "status": 3,
+                "lattice_spacing_mm": s, "coarse_levels": coarse[1], "estimate_xy": coarse[2],
+                "estimate_times_s": coarse[3], "method_detail": "the coarsest level of the fft solve"})
         cst = wcost(coarse[0])
-        if coarse_only:  # an estimate: the coarse levels' times, refined by a few iterations only
-            best, max_iter = (-1.0, coarse[0], float("nan")), min(max_iter, ESTIMATE_ITERATIONS)
         if cst < best[0]:
             best = (cst, coarse[0], float("nan"))
     _, x0, gamma = best
@@ -491,25 +493,27 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
     t, res = bounded_lsq(lambda t: conv(scatter(t)).ravel(), lambda r: ST @ corr(r.reshape(ni, nj)).ravel(),
                           b.ravel(), w.ravel(), tmin, x0, D, lam, max_iter, tol, diag)
     nfit = max(int((w > 0).sum()), 1)
+    est = {"estimate_xy": cen, "estimate_times_s": t} if coarse_only else {}
     stats = {"iterations": int(res.nit), "message": str(res.message), "status": int(res.status),
              "relative_residual": res.rho, "relative_residual_start": res.rho_start,
              "relative_residual_change_30": res.rho_change,
              "threshold_gamma": float(gamma), "fit_rms_nm": float(math.sqrt(wcost(t) / nfit)),
              "lattice_spacing_mm": s, "lattice_shape": [ni, nj], "smoothness_lambda": lam,
-             "coarse_levels": [] if coarse is None else coarse[1],
+             "coarse_levels": [] if coarse is None else coarse[1], **est,
              "method_detail": "RIFTA-style thresholded inverse filter for the first times, then "
                               "L-BFGS-B (bounds t >= t_min, Jacobi-scaled) with the influence applied as an FFT convolution"}
     return DwellSolution(t, tmin, "fft", bool(res.success), stats)
 
 
-def _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol):
+def _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol, coarse_only=False):
     """First times for the lattice ``c + ij @ M`` from the problem solved on the lattice of twice the spacing.
 
     Each coarse node stands for the points whose ``ij // 2`` it is: its least time is theirs summed, and what
     its time adds over that spreads back to them as a density (extra time per point) interpolated bilinearly
     between the coarse nodes, on top of each point's own least time. The
     smoothness weight is scaled so that the same smooth times cost the same (a coarse time is 4 fine ones,
-    its differences span 2 steps, a quarter as many pixels fit). Returns (times (N,), the levels' figures).
+    its differences span 2 steps, a quarter as many pixels fit). Returns (times (N,), the levels' figures,
+    and with ``coarse_only`` the coarsest level's node positions (K, 2) and times (K,), else None, None).
     """
     from scipy import ndimage
 
@@ -521,7 +525,7 @@ def _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol):
     Mc, cc = 2.0 * M, c + np.array([0.5, 0.5]) @ M
     xy_c = cc + key.astype(np.float64) @ Mc
     sol = _solve_fft(xy_c, xy_c, key, (cc, Mc), target, tif, tmin_c, 2.0 * math.sqrt(abs(np.linalg.det(M))),
-                     smoothness / 8.0, max_iter, tol)
+                     smoothness / 8.0, max_iter, tol, coarse_only)
     k0 = key.min(axis=0)
     shape = tuple(key.max(axis=0) - k0 + 1)
     dens = np.zeros(shape)
@@ -534,8 +538,9 @@ def _coarse_start(pts, ij, c, M, tmin, target, tif, smoothness, max_iter, tol):
     f = (ij - 0.5) / 2.0 - k0  # a fine node's coarse index
     t = ndimage.map_coordinates(dens, [f[:, 0], f[:, 1]], order=1, mode="nearest")
     level = {"lattice_spacing_mm": float(2.0 * math.sqrt(abs(np.linalg.det(M)))), "points": int(len(key)),
-             "iterations": int(sol.stats["iterations"]), "relative_residual": sol.stats["relative_residual"]}
-    return tmin + np.maximum(t, 0.0), [level, *sol.stats.get("coarse_levels", [])]
+             "iterations": int(sol.stats["iterations"]), "relative_residual": sol.stats.get("relative_residual")}
+    return (tmin + np.maximum(t, 0.0), [level, *sol.stats.get("coarse_levels", [])],
+            sol.stats.get("estimate_xy"), sol.stats.get("estimate_times_s"))
 
 
 def _lattice_splat(cen, c, M, i0, j0, ni, nj):
