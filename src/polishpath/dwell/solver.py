@@ -426,20 +426,27 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
     koff = np.column_stack([ki.ravel(), kj.ravel()]) @ M
     K = tif_rate(tif, koff[:, 0], koff[:, 1]).reshape(2 * H + 1, 2 * H + 1)
     shape = (fft.next_fast_len(ni + 2 * H), fft.next_fast_len(nj + 2 * H))
+    # the iterations' FFTs in single precision (scipy.fft keeps float32 / complex64): 1e-7 of the removal, far
+    # below the 1e-3 relative change the stopping rule looks at; 10^5 points: 3.35 -> 2.8 s CPU, the same
+    # residual (4.8149 / 4.8145 nm). The costs, the preconditioner and the first guesses stay in double
     Kf = fft.rfft2(K, shape)
     Kc = np.conj(Kf)
+    Kf32, Kc32 = Kf.astype(np.complex64), Kc.astype(np.complex64)
     li, lj = ij[:, 0] - i0, ij[:, 1] - j0
 
     def conv(T):  # the kernel's centre sits at [H, H]: the linear convolution is the slice [H:H+ni]
         return fft.irfft2(fft.rfft2(T, shape) * Kf, shape)[H:H + ni, H:H + nj]
 
-    def pad(R):
-        P = np.zeros(shape)
+    def conv32(T):
+        return fft.irfft2(fft.rfft2(T.astype(np.float32), shape) * Kf32, shape)[H:H + ni, H:H + nj].astype(np.float64)
+
+    def pad(R, dtype=np.float64):
+        P = np.zeros(shape, dtype=dtype)
         P[H:H + ni, H:H + nj] = R
         return P
 
-    def corr(R):  # adjoint of conv
-        return fft.irfft2(fft.rfft2(pad(R)) * Kc, shape)[:ni, :nj]
+    def corr32(R):  # adjoint of conv
+        return fft.irfft2(fft.rfft2(pad(R, np.float32)) * Kc32, shape)[:ni, :nj].astype(np.float64)
 
     # each time sits at its region's centroid, spread bilinearly onto the lattice nodes around it
     S = _lattice_splat(cen, c, M, i0, j0, ni, nj)
@@ -490,7 +497,7 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
     diag = ST @ fft.irfft2(fft.rfft2(pad(w * w)) * np.conj(K2f), shape)[:ni, :nj].ravel()
     if lam > 0:
         diag = diag + lam * lam * np.asarray(D.multiply(D).sum(axis=0)).ravel()
-    t, res = bounded_lsq(lambda t: conv(scatter(t)).ravel(), lambda r: ST @ corr(r.reshape(ni, nj)).ravel(),
+    t, res = bounded_lsq(lambda t: conv32(scatter(t)).ravel(), lambda r: ST @ corr32(r.reshape(ni, nj)).ravel(),
                           b.ravel(), w.ravel(), tmin, x0, D, lam, max_iter, tol, diag)
     nfit = max(int((w > 0).sum()), 1)
     est = {"estimate_xy": cen, "estimate_times_s": t} if coarse_only else {}
