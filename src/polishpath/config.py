@@ -30,6 +30,7 @@ from typing import Any, Callable
 
 from .defaults import (
     DEFAULT_CHORD_TOL_MM,
+    DEFAULT_DWELL_POINTS,
     DEFAULT_FEED_MM_MIN,
     DEFAULT_FLATTEN_METHOD,
     DEFAULT_INTEGRATOR,
@@ -215,7 +216,7 @@ class JobConfig:
     pattern: str = option("pseudorandom", "--pattern", "-p",
                           help="pseudorandom (default), raster, spiral, rectangular, or a peer: unicursal, maze, "
                                "fractal, hilbert.")
-    dwell_points: str = option("grid", "--dwell-points", choices=("grid", "blue-noise", "relaxed"),
+    dwell_points: str = option(DEFAULT_DWELL_POINTS, "--dwell-points", choices=("grid", "blue-noise", "relaxed"),
                                help="Dwell points: 'grid' (default: the paper's square grid), 'blue-noise' or "
                                     "'relaxed' (no lattice; pseudorandom pattern only).")
     spacing: float = option(DEFAULT_SPACING_MM, "--spacing", "-s",
