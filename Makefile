@@ -21,12 +21,19 @@ venv: $(BIN)/python
 # The editable install follows src/ by itself, so pip runs again only when the package's metadata
 # (pyproject.toml, the version) is newer than the last install: a pip run that changes nothing
 # still takes ~12 s (it builds the editable wheel), which every `make demo` and `make test` paid.
+# --no-compile: pip does not byte-compile the ~6,900 .py files of the dependencies (11 of its ~29 CPU seconds on a
+# fresh venv); Python compiles the ~1,600 modules the job imports at their first import instead (about 2 s once,
+# docs/performance.md). `make test`'s install keeps pip's byte-compile: its hundreds of processes import them all.
 $(VENV)/.installed: pyproject.toml src/polishpath/_version.py | $(BIN)/python
-	$(BIN)/python -m pip install -q -e .
+	$(BIN)/python -m pip install -q --no-compile -e .
 	@touch $@
 
+# after `make demo`'s --no-compile install, pip leaves the packages already there as they are: byte-compile them
+# here (compileall skips what is compiled), or every test's subprocess compiles its imports where Python may not
+# write them (PYTHONDONTWRITEBYTECODE)
 $(VENV)/.installed-test: pyproject.toml src/polishpath/_version.py | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[test]'
+	@if [ -f $(VENV)/.installed ]; then $(BIN)/python -m compileall -q -j 0 $(VENV)/lib >/dev/null 2>&1 || true; fi
 	@touch $@
 
 install: $(VENV)/.installed
