@@ -58,15 +58,16 @@ def test_zernike_error_is_removed_to_5_percent(figured_job):
 
 
 def test_demo_delivers_every_dwell_time(figured_job):
-    # issue 28, item 3 on the figuring example (examples/figuring/job.toml): 0.28 % RMS, 6.7 % worst (was
-    # 8.8 % and 80 %); the 5 % worst of the issue is missed here by a region whose turn (the chord limit
-    # at 5 um) makes its time jump with the feed, so the bound asserted is 8 %
+    # issue 28, item 3 on the figuring example (examples/figuring/job.toml): 0.21 % RMS, 4.4 % worst (was
+    # 0.28 % and 6.7 %: a region whose turn, at the 5 um chord limit, makes its time jump by up to 66 % from
+    # one feed to a nearby one; the search of smooth/timing.next_region_feed finds a feed between the jumps),
+    # within the top feed
     job, out = figured_job
     import json
 
     fg = json.loads((out / "summary.json").read_text())["figuring"]
     assert fg["delivered_time_error_rms"] <= 0.005
-    assert fg["delivered_time_error_max"] <= 0.08
+    assert fg["delivered_time_error_max"] <= 0.05
     assert job.tool_path.feed_mm_min.max() <= 3000.0 * (1 + 1e-9)
 
 
@@ -127,7 +128,12 @@ def _region_times_of_run(out, period_ms):
     tp = with_samples(read_run(out).tool_path)
     dp, sp = tp.dwell_params, tp.sample_params
     rb = np.concatenate([[sp[0]], 0.5 * (dp[1:] + dp[:-1]), [sp[-1]]])
-    return np.diff(np.interp(rb, sp, np.arange(len(sp)) * period_ms / 1000.0))
+    T = period_ms / 1000.0
+    tt = np.arange(len(sp)) * T
+    # the last step, cut short at the piece's end, is a block the controller runs at its feed: length / feed
+    last = np.linalg.norm(tp.samples[-1] - tp.samples[-2]) / (tp.feed_mm_min[-1] / 60.0)
+    tt[-1] = tt[-2] + min(T, last)
+    return np.diff(np.interp(rb, sp, tt))
 
 
 def test_independent_removal_from_path_csv_agrees(figured_job):

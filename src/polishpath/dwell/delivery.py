@@ -81,24 +81,62 @@ def _polyline_centroids(q: np.ndarray) -> np.ndarray:
     return c[:, :2]
 
 
+def sample_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
+    """Time at each machine sample from the start of its piece, s (M,): what the G-code's blocks take.
+
+    One period per step (``sample_s``, the time each sample stands for, where a
+    machine's schedule stretched it: the step arriving at a sample takes that
+    sample's time, as the G-code's block to it runs at its feed), except each
+    piece's last step: cut short at
+    the piece's end, it is run at its sample's feed (the controller's time for
+    a block is its length over its feed, :mod:`polishpath.export.segment`), so
+    it takes its length over that feed, less than a period. The smoothing
+    stage times its dwell regions the same way
+    (:func:`polishpath.smooth.spans.record_step`).
+    """
+    sp = np.asarray(tool_path.sample_params, dtype=np.float64)
+    T = float(tool_path.period_ms) / 1000.0
+    spieces = np.asarray(tool_path.sample_pieces, dtype=np.int64)
+    pts = np.asarray(tool_path.samples, dtype=np.float64)
+    feed = np.asarray(tool_path.feed_mm_min, dtype=np.float64) / 60.0
+    out = np.zeros(len(sp))
+    for k in range(len(spieces) - 1):
+        a, b = int(spieces[k]), int(spieces[k + 1])
+        if b <= a:
+            continue
+        if sample_s is None:
+            w = np.full(b - a, T)
+        else:
+            w = np.asarray(sample_s, dtype=np.float64)[a:b]
+        # the step arriving at a sample runs at that sample's feed (as the G-code's block to it does)
+        tt = np.concatenate([[0.0], np.cumsum(w[1:])])
+        if b - a >= 2 and len(pts) == len(sp) and feed[b - 1] > 0.0:
+            # the last step's length over its feed, at most its whole time (the kernel aims every other step's
+            # chord at feed x period, to 1e-6: those keep their period exactly)
+            last = float(np.linalg.norm(pts[b - 1] - pts[b - 2]))
+            tt[-1] = tt[-2] + min(w[-1], last / feed[b - 1])
+        out[a:b] = tt
+    return out
+
+
 def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
     """Time the machine-timed path spends in each dwell point's region, s (N,).
 
     ``tool_path`` is a :class:`~polishpath.types.ToolPath` (read through its
-    fields only: this stage does not import the smoothing stage). The samples are
-    one interpolation period apart within each piece, so the time at a curve
-    parameter is the piecewise-linear interpolation of ``i * period`` over the
-    sample parameters; a region's time is the difference at its ends (the
-    regions of the smoothing stage: half-way between dwell parameters, the
-    piece's ends for its first and last point). Not a count of samples, which
-    would be off by up to one period per region. ``sample_s`` (M,) s: the time
-    each sample stands for where it is not one period (a machine's schedule);
-    the time at a sample is then the sum of those before it in its piece.
+    fields only: this stage does not import the smoothing stage). The time at a
+    curve parameter is the piecewise-linear interpolation of the samples' times
+    (:func:`sample_times`: one period per step, the piece's last step its length
+    over its feed) over the sample parameters; a region's time is the difference
+    at its ends (the regions of the smoothing stage: half-way between dwell
+    parameters, the piece's ends for its first and last point). Not a count of
+    samples, which would be off by up to one period per region. ``sample_s`` (M,)
+    s: the time each sample stands for where it is not one period (a machine's
+    schedule).
     """
     dp = np.asarray(tool_path.dwell_params, dtype=np.float64)
     sp = np.asarray(tool_path.sample_params, dtype=np.float64)
-    T = float(tool_path.period_ms) / 1000.0
     spieces, ppar = tool_path.sample_pieces, tool_path.piece_params
+    times = sample_times(tool_path, sample_s)
     out = np.zeros(len(dp))
     for k in range(len(spieces) - 1):
         s = sp[spieces[k]:spieces[k + 1]]
@@ -110,10 +148,5 @@ def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
             continue
         d = dp[idx]
         rb = np.concatenate([[s[0]], 0.5 * (d[1:] + d[:-1]), [s[-1]]])
-        if sample_s is None:
-            tt = np.arange(len(s)) * T
-        else:
-            w = np.asarray(sample_s, dtype=np.float64)[spieces[k]:spieces[k + 1]]
-            tt = np.concatenate([[0.0], np.cumsum(w[:-1])])
-        out[idx] = np.diff(np.interp(rb, s, tt))
+        out[idx] = np.diff(np.interp(rb, s, times[spieces[k]:spieces[k + 1]]))
     return out

@@ -132,7 +132,9 @@ def record_step(state, region_b, region_times, k, u, un, pa, pb, v, sched, perio
     """Add the step from sample ``k - 1`` (``u``, ``pa``) to sample ``k`` (``un``, ``pb``) at feed ``v``
     (scheduled ``sched``, chord error ``ce``) to the piece's figures in ``state``; time the
     dwell-region boundaries it passes (``region_times``, s; the time is linear in the parameter
-    over a step, as ``numpy.interp`` over the samples would give it, to the bit)."""
+    over a step, as ``numpy.interp`` over the samples would give it, to the bit; the piece's last
+    step, cut short at the piece's end, takes its length over ``v``, as
+    :func:`polishpath.dwell.delivery.sample_times` gives it)."""
     act = 0.0
     for j in range(DIM):
         act += (pb[j] - pa[j]) * (pb[j] - pa[j])
@@ -157,6 +159,11 @@ def record_step(state, region_b, region_times, k, u, un, pa, pb, v, sched, perio
     if j < nb and region_b[j] <= un:
         t0 = (k - 1) * period_s
         t1 = k * period_s
+        if un >= region_b[nb - 1] and act < cmd:
+            # the piece's last step, cut short at its end: the controller runs its block at the feed ``v``
+            # (the G-code's time is the block's length over its feed), so it takes its length over ``v``,
+            # not a whole period (the last region's time is then continuous in its feed)
+            t1 = t0 + period_s * (act / cmd)
         slope = (t1 - t0) / (un - u)
         while j < nb and region_b[j] <= un:
             x = region_b[j]
