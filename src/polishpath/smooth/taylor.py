@@ -28,7 +28,7 @@ from .spans import (DIM, STATE_SIZE, ST_CE_MAX, ST_COUNT, ST_DONE, ST_FALLBACKS,
                     ST_RERUN_SAMPLES, ST_RSTART, ST_RUNS_MAX, ST_SR, ST_U, chord_deviation, chord_newton, figure_error, nudge,
                     record_step, region_at, safe_tolerance, span_at, span_derivs, span_of, span_point, start_piece,
                     step_error, step_feed)
-from .timing import feed_for_time, region_nodes, sort_nodes, time_at
+from .timing import feed_for_time, next_region_feed, region_nodes, sort_nodes, time_at
 
 __all__ = ["taylor_kernel", "taylor_schedule_kernel", "RERUN_MAX_SAMPLES"]
 
@@ -237,33 +237,25 @@ def _taylor_run(breaks, coeffs, bends, size, u0, u1, region_b, region_feed, vmax
                     if abs(rel) < best_err:
                         best_err = abs(rel)
                         best_f = f
-                    # the feeds run so far bracket the wanted time: too slow below f_lo, too fast above f_hi
-                    if rel > 0.0 and f > f_lo:
+                    # the feeds run so far bracket the wanted time (f_lo too slow, f_hi too fast); once they do,
+                    # a run replaces the end of its sign (the time jumps with the feed: timing.next_region_feed)
+                    bracketed = f_lo > 0.0 and f_hi < math.inf
+                    if rel > 0.0 and (f > f_lo or bracketed):
                         f_lo = f
                         rel_lo = rel
-                    elif rel < 0.0 and f < f_hi:
+                    elif rel < 0.0 and (f < f_hi or bracketed):
                         f_hi = f
                         rel_hi = rel
-                    if replay:
-                        pass
-                    elif abs(rel) > rel_tol and runs < max_runs and not (rel > 0.0 and f >= vmax * (1.0 - 1e-12)):
-                        # the model asked for the time less this run's own miss
+                    if not replay and abs(rel) > rel_tol and runs < max_runs:
+                        # the model asked for the time less this run's own miss; once bracketed, or too slow at
+                        # the top feed, the search of timing.next_region_feed
                         miss = (spent - (want - left)) - time_at(lim, wt, f)
                         fn = feed_for_time(lim, wt, length, max(left - miss, 0.1 * left), vmax)
-                        if f_lo > 0.0 and f_hi < math.inf:
-                            # bracketed: the time goes about as a + b / f, so interpolate the miss in 1 / f
-                            # (where the chord limit makes it jump, the model's step may leave the bracket)
-                            x_lo = 1.0 / f_lo
-                            x_hi = 1.0 / f_hi
-                            x = x_lo + rel_lo * (x_hi - x_lo) / (rel_lo - rel_hi)
-                            lo_in = x_hi + 0.05 * (x_lo - x_hi)
-                            hi_in = x_lo - 0.05 * (x_lo - x_hi)
-                            if not (lo_in <= 1.0 / fn <= hi_in):
-                                fn = 1.0 / min(max(x, lo_in), hi_in)
+                        fn = next_region_feed(fn, f, rel, f_lo, rel_lo, f_hi, rel_hi, vmax, max_runs > 2)
                         if fn != f:
                             region_feed[cur] = fn
                             again = True
-                    elif abs(rel) > best_err and best_f != f:
+                    if not (again or replay) and abs(rel) > best_err and best_f != f:
                         region_feed[cur] = best_f  # an earlier run was nearer: make it again
                         replay = True
                         again = True
