@@ -29,6 +29,8 @@ from ._steps import (
 
 #: Longest stretch (inner points) a kick takes out of the path to make room for a leftover point.
 KICK_MAX = 6
+#: Largest block of path points an or-opt move carries beside another neighbour of a leftover point.
+MOVE_MAX = 4
 
 
 @numba.njit(cache=True)
@@ -265,53 +267,96 @@ def _try_move_beside(u, indptr, indices, vis, nxt, prv):
     """Or-opt for unvisited ``u``: move a path neighbour ``a`` of ``u`` beside another, ``c``, with ``u`` between.
 
     ``.. a- a a+ .. c- c ..`` -> ``.. a- a+ .. c- a u c ..`` (or ``.. c u a c+ ..``): needs ``(a-, a+)``
-    an edge (or ``a`` a piece end) and ``(c-, a)`` (or ``(a, c+)``) an edge (or ``c`` a piece end). The
-    point the walk leaves inside a ring of path points it passes crosswise (no splice, no 2-opt) usually
-    has one. Every new step is a graph edge. Returns success.
+    an edge (or ``a`` a piece end) and ``(c-, a)`` (or ``(a, c+)``) an edge (or ``c`` a piece end). When
+    no such move exists, ``a`` moves with up to ``MOVE_MAX - 1`` of its path neighbours on one side, as one
+    block ``a .. z`` (``.. c- z .. a u c ..``): the block's two outer path neighbours must share an edge,
+    and ``z`` must be next to ``c``'s other path neighbour. The point the walk leaves inside a ring of path
+    points it passes crosswise (no splice, no 2-opt) usually has such a move. Every new step is a graph
+    edge. Returns success.
     """
+    for L in range(1, MOVE_MAX + 1):
+        for way in range(2):
+            nx, pv = (nxt, prv) if way == 0 else (prv, nxt)
+            if _move_block(u, L, indptr, indices, vis, nx, pv):
+                vis[u] = 1
+                return True
+            if L == 1:
+                break  # a block of one point is the same either way
+    return False
+
+
+@numba.njit(cache=True)
+def _move_block(u, L, indptr, indices, vis, nx, pv):
+    """The move of :func:`_try_move_beside` for blocks of ``L`` points ``a = b_0 .. b_{L-1} = z`` along ``nx``."""
     for e in range(indptr[u], indptr[u + 1]):
         a = indices[e]
         if vis[a] == 0:
             continue
-        am = prv[a]
-        ap = nxt[a]
-        if am >= 0 and ap >= 0 and not _adjacent(am, ap, indptr, indices):
+        z = a
+        ok = True
+        for _ in range(L - 1):
+            z = nx[z]
+            if z < 0 or z == u:
+                ok = False
+                break
+        if not ok:
             continue
-        if am < 0 and ap < 0:
+        am = pv[a]
+        zp = nx[z]
+        if am < 0 and zp < 0:
+            continue  # the block is a whole piece
+        if am >= 0 and zp >= 0 and not _adjacent(am, zp, indptr, indices):
             continue
         for f in range(indptr[u], indptr[u + 1]):
             c = indices[f]
-            if c == a or vis[c] == 0 or c == am or c == ap:
+            if c == a or vis[c] == 0 or c == am or c == zp or _in_block(c, a, L, nx):
                 continue
             for side in range(2):
-                cn = prv[c] if side == 0 else nxt[c]  # a goes between cn and c
-                if cn == a or (cn >= 0 and not _adjacent(cn, a, indptr, indices)):
+                cn = pv[c] if side == 0 else nx[c]  # the block goes between cn and c
+                if cn >= 0 and (cn == am or cn == zp or _in_block(cn, a, L, nx)
+                                or not _adjacent(cn, z, indptr, indices)):
                     continue
-                # take a out
+                # take the block out
                 if am >= 0:
-                    nxt[am] = ap
-                if ap >= 0:
-                    prv[ap] = am
-                # put a, u between cn and c (side 0: cn a u c; side 1: c u a cn)
-                cn = prv[c] if side == 0 else nxt[c]
-                if side == 0:
+                    nx[am] = zp
+                if zp >= 0:
+                    pv[zp] = am
+                if side == 0:  # cn z .. a u c: the block reversed
+                    p = a
+                    for _ in range(L):
+                        q = nx[p]
+                        nx[p] = pv[p]
+                        pv[p] = q
+                        p = q
                     if cn >= 0:
-                        nxt[cn] = a
-                    prv[a] = cn
-                    nxt[a] = u
-                    prv[u] = a
-                    nxt[u] = c
-                    prv[c] = u
-                else:
+                        nx[cn] = z
+                    pv[z] = cn
+                    nx[a] = u
+                    pv[u] = a
+                    nx[u] = c
+                    pv[c] = u
+                else:  # c u a .. z cn
+                    nx[c] = u
+                    pv[u] = c
+                    nx[u] = a
+                    pv[a] = u
+                    nx[z] = cn
                     if cn >= 0:
-                        prv[cn] = a
-                    nxt[a] = cn
-                    prv[a] = u
-                    nxt[u] = a
-                    prv[u] = c
-                    nxt[c] = u
-                vis[u] = 1
+                        pv[cn] = z
                 return True
+    return False
+
+
+@numba.njit(cache=True)
+def _in_block(x, a, L, nx):
+    """Whether ``x`` is one of the ``L`` points from ``a`` on along ``nx``."""
+    p = a
+    for _ in range(L):
+        if p == x:
+            return True
+        p = nx[p]
+        if p < 0:
+            break
     return False
 
 

@@ -363,11 +363,11 @@ def _local_delaunay(xy, cells, cstart, x0, y0, cw, W, H, lmax, rho, eps):  # pra
                 a = 2.0 * (nx * ux + ny * uy)
                 b = 0.25 * d2 - (ux * ux + uy * uy)
                 if a > 0:
-                    if b / a > lo:
+                    if b > lo * a:  # b / a > lo, the division only when it moves the bound
                         lo = b / a
                         xlo = x
                 elif a < 0:
-                    if b / a < hi:
+                    if b > hi * a:  # b / a < hi
                         hi = b / a
                         xhi = x
                 elif b > 0:
@@ -441,10 +441,13 @@ def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, n
     """
     n = len(uv)
     lmax = EDGE_FACTOR * spacing
-    cells, cstart, x0, y0, W, H = cell_lists(uv, spacing)
+    # cells as wide as the reach of an empty circle (2 x its radius): each point's candidates are in the
+    # 3 x 3 cells around it
+    cw = 2 * EMPTY_CIRCLE_FACTOR * spacing
+    cells, cstart, x0, y0, W, H = cell_lists(uv, cw)
     # edges up to TRIANGLE_EDGE_FACTOR x spacing are found so that the triangles around a gap count in the
     # cell areas; only those up to EDGE_FACTOR x spacing join the walk's graph
-    ea, eb, tris = _local_delaunay(uv, cells, cstart, x0, y0, float(spacing), W, H, TRIANGLE_EDGE_FACTOR * spacing,
+    ea, eb, tris = _local_delaunay(uv, cells, cstart, x0, y0, float(cw), W, H, TRIANGLE_EDGE_FACTOR * spacing,
                                    EMPTY_CIRCLE_FACTOR * spacing, 1e-9 * spacing)
     near = _near_boundary(poly, uv, TRIANGLE_EDGE_FACTOR * spacing)
     check = near[ea] | near[eb]
