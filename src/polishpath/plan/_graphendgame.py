@@ -14,7 +14,7 @@ import numba
 import numpy as np
 
 from ._endgame import _reverse_piece
-from ._graphwalk import _adjacent, _has_free, graph_walk
+from ._graphwalk import _adjacent, _has_free, _has_neighbour, graph_walk
 from ._steps import (
     N_STATS,
     ST_APPEND,
@@ -26,6 +26,15 @@ from ._steps import (
     ST_TWOOPT,
     link_path,
 )
+
+@numba.njit(cache=True)
+def _put_between(a, u, b, nx, pv):
+    """Link ``u`` between ``a`` and ``b`` (``b`` after ``a`` along ``nx``); with ``(prv, nxt)``, the other way."""
+    nx[a] = u
+    pv[u] = a
+    nx[u] = b
+    pv[b] = u
+
 
 #: Longest stretch (inner points) a kick takes out of the path to make room for a leftover point.
 KICK_MAX = 6
@@ -45,15 +54,9 @@ def _try_splice(u, indptr, indices, vis, nxt, prv):
             if b < 0 or not _adjacent(u, b, indptr, indices):
                 continue
             if s == 0:
-                nxt[a] = u
-                prv[u] = a
-                nxt[u] = b
-                prv[b] = u
+                _put_between(a, u, b, nxt, prv)
             else:
-                prv[a] = u
-                nxt[u] = a
-                prv[u] = b
-                nxt[b] = u
+                _put_between(a, u, b, prv, nxt)
             vis[u] = 1
             return 1
     for e in range(indptr[u], indptr[u + 1]):
@@ -102,10 +105,7 @@ def _try_two_opt(u, indptr, indices, vis, nxt, prv, maxlen):
                         if p == c:
                             break
                         p = q
-                    nxt[a] = u
-                    prv[u] = a
-                    nxt[u] = c
-                    prv[c] = u
+                    _put_between(a, u, c, nxt, prv)
                     nxt[a1] = c1
                     if c1 >= 0:
                         prv[c1] = a1
@@ -144,15 +144,9 @@ def _try_kick(u, indptr, indices, vis, nxt, prv, out):
                     out[i] = x
                     x = nxt[x] if side == 0 else prv[x]
                 if side == 0:
-                    nxt[a] = u
-                    prv[u] = a
-                    nxt[u] = c
-                    prv[c] = u
+                    _put_between(a, u, c, nxt, prv)
                 else:
-                    prv[a] = u
-                    nxt[u] = a
-                    prv[u] = c
-                    nxt[c] = u
+                    _put_between(a, u, c, prv, nxt)
                 vis[u] = 1
                 for i in range(length):
                     vis[out[i]] = 0
@@ -331,15 +325,9 @@ def _move_block(u, L, indptr, indices, vis, nx, pv):
                     if cn >= 0:
                         nx[cn] = z
                     pv[z] = cn
-                    nx[a] = u
-                    pv[u] = a
-                    nx[u] = c
-                    pv[c] = u
+                    _put_between(a, u, c, nx, pv)
                 else:  # c u a .. z cn
-                    nx[c] = u
-                    pv[u] = c
-                    nx[u] = a
-                    pv[a] = u
+                    _put_between(c, u, a, nx, pv)
                     nx[z] = cn
                     if cn >= 0:
                         pv[cn] = z
@@ -384,7 +372,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
     qh, qt = 0, 0
     for i in range(n):
         u = nodes[i]
-        if vis[u] == 0 and _has_free_visited(u, indptr, indices, vis) and inq[u] == 0:
+        if vis[u] == 0 and _has_neighbour(u, indptr, indices, vis, 1) and inq[u] == 0:
             inq[u] = 1
             queue[qt % cap] = u
             qt += 1
@@ -394,7 +382,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
         before = qt
         for i in range(n):
             u = nodes[i]
-            if vis[u] == 0 and inq[u] == 0 and _has_free_visited(u, indptr, indices, vis):
+            if vis[u] == 0 and inq[u] == 0 and _has_neighbour(u, indptr, indices, vis, 1):
                 inq[u] = 1
                 queue[qt % cap] = u
                 qt += 1
@@ -445,12 +433,3 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
         if _try_join(s0, indptr, indices, vis, nxt, prv, mark, buf):
             stats[ST_JOIN] += 1
     return stats
-
-
-@numba.njit(cache=True)
-def _has_free_visited(u, indptr, indices, vis):
-    """Whether ``u`` has a neighbour on the path."""
-    for e in range(indptr[u], indptr[u + 1]):
-        if vis[indices[e]] == 1:
-            return True
-    return False

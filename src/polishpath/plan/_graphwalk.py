@@ -56,16 +56,22 @@ from ._steps import (
     ST_STUCK,
     ST_TENTHS,
 )
-from ._treap import TV, tinorder, tmerge, tnew, trank, tsplit, tsucc
+from ._treap import TV, tgive_back, tinorder, tmerge, tnew, trank, tsplit, tsucc
+
+
+@numba.njit(cache=True)
+def _has_neighbour(p, indptr, indices, vis, value):
+    """Whether node ``p`` has a neighbour with ``vis`` equal to ``value`` (0: unvisited, 1: on a path)."""
+    for e in range(indptr[p], indptr[p + 1]):
+        if vis[indices[e]] == value:
+            return True
+    return False
 
 
 @numba.njit(cache=True)
 def _has_free(p, indptr, indices, vis):
     """Whether node ``p`` has an unvisited neighbour."""
-    for e in range(indptr[p], indptr[p + 1]):
-        if vis[indices[e]] == 0:
-            return True
-    return False
+    return _has_neighbour(p, indptr, indices, vis, 0)
 
 
 @numba.njit(cache=True)
@@ -266,13 +272,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
         if r < 0:
             # the paper's step 7: give back the last points and walk on (budgeted)
             if backtrack > 0 and deleted + backtrack <= budget and k > backtrack + 1:
-                A, B = tsplit(root, k - backtrack - 1, T, stack)
-                c = tinorder(B, T, P, stack)
-                for i in range(1, c):
-                    vis[P[i]] = 0
-                    wid[P[i]] = 0
-                tnew(P[0], T)
-                root = tmerge(A, P[0], T, stack)
+                root, _ = tgive_back(root, k, backtrack, T, stack, P, vis, wid)
                 head = P[0]
                 k -= backtrack
                 deleted += backtrack

@@ -203,3 +203,20 @@ def tnew(x, T):
     T[x, TS] = 1
     T[x, TV] = 0
     T[x, TPR] = np.random.randint(0, 2147483647)
+
+
+@numba.njit(cache=True)
+def tgive_back(root, k, m, T, stack, P, vis, wid):
+    """The paper's step 7 on a walk's path of ``k`` nodes: give back its last ``m`` nodes.
+
+    They leave the path (``vis`` and ``wid`` 0); the node before them is the new head. ``P`` receives the
+    ``m + 1`` last nodes in path order (the new head first), so that a caller can undo what it marked for
+    their steps. Returns the new root and ``m + 1``.
+    """
+    A, B = tsplit(root, k - m - 1, T, stack)
+    c = tinorder(B, T, P, stack)
+    for i in range(1, c):
+        vis[P[i]] = 0
+        wid[P[i]] = 0
+    tnew(P[0], T)  # P[0] is the new head: put it back
+    return tmerge(A, P[0], T, stack), c

@@ -30,7 +30,7 @@ from ._steps import (
     mark_step,
     nearest_unvisited,
 )
-from ._treap import TV, tinorder, tmerge, tnew, trank, tsplit, tsucc
+from ._treap import TV, tgive_back, tinorder, tmerge, tnew, trank, tsplit, tsucc
 
 
 @numba.njit(cache=True)
@@ -185,16 +185,9 @@ def walk(start, walk_id, comp, backtrack, budget, nodes_n, g, o, w, stats):  # p
             continue
         # paper step 7: give back the last points and walk on (budgeted)
         if backtrack > 0 and deleted + backtrack <= budget and k > backtrack + 1:
-            A, B = tsplit(root, k - backtrack - 1, T, stack)
-            c = tinorder(B, T, P, stack)
+            root, c = tgive_back(root, k, backtrack, T, stack, P, vis, wid)
             for i in range(1, c):
                 mark_step(P[i - 1], dir_between(P[i - 1], P[i], W), W, diag, False)
-            for i in range(1, c):
-                vis[P[i]] = 0
-                wid[P[i]] = 0
-            # P[0] is the new head: put it back
-            tnew(P[0], T)
-            root = tmerge(A, P[0], T, stack)
             head = P[0]
             k -= backtrack
             deleted += backtrack
