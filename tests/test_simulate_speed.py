@@ -8,6 +8,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -127,3 +129,22 @@ def test_the_wide_box_holds_every_sample_that_reaches_the_coarse_grid(q):
     box = _touches_grid(xy, SHAPE, ORIGIN, DX, margin_px=2.0 * q + 1.0)
     assert np.all(box[coarse]) and np.all(box[fine])
     assert box.sum() < len(box)
+
+
+def test_a_rotating_tool_comparison_is_the_same_bytes_with_one_and_two_workers(tmp_path):
+    """The rotating tool's removal (the patch's samples, one column per run) as a pure function of each case."""
+    from typer.testing import CliRunner
+
+    from polishpath.cli import app
+
+    args = ["simulate", "hemisphere:R=12,triangles=700", "--patterns", "pseudorandom,raster", "--spacing", "1",
+            "--patch", "8", "--dx", "0.05", "--seed", "2", "--seeds", "2", "-q"]
+    outs = []
+    for w in (1, 2):
+        out = tmp_path / f"w{w}"
+        r = CliRunner().invoke(app, [*args, "--workers", str(w), "-o", str(out)])
+        assert r.exit_code == 0, r.output
+        outs.append(((out / "results.json").read_bytes(), (out / "table.txt").read_bytes()))
+    assert outs[0] == outs[1]
+    js = json.loads(outs[0][0])
+    assert js["params"]["tif"]["kind"] == "rotating"  # the rotating tool (the default), not a Gaussian TIF
