@@ -90,6 +90,17 @@ def test_real_metropro_dat_agrees_with_an_independent_reader(tmp_path):
     assert np.sqrt(np.mean(np.var(z, axis=1))) == pytest.approx(75.24071, rel=1e-6)
 
 
+def test_real_metropro_dat_as_an_error_map_has_its_rows_flipped(tmp_path, recwarn):
+    """The real .dat read as a figuring error map: the same pixels, rows reversed (row 0 at the smallest y), the
+    pixel size from the header in both directions."""
+    p = _real_dat(tmp_path)
+    m = read_measurement(p)
+    e = read_error_map(p)
+    np.testing.assert_array_equal(e.z_nm, m.z_nm[::-1])
+    assert "flipped" in e.params["rows"]
+    assert e.dx_mm == pytest.approx(1.0982520e-3, rel=1e-6) and e.dy_mm == pytest.approx(e.dx_mm)
+
+
 def test_real_metropro_dat_bytes_cut_short_are_refused(tmp_path):
     p = _real_dat(tmp_path)
     p.write_bytes(p.read_bytes()[:-4 * 640])  # the last phase row lost
