@@ -20,7 +20,6 @@ from polishpath.psd import read_measurement
 DATA = Path(__file__).resolve().parent / "data" / "measurements"
 REAL_DATX = DATA / "zygo_gpi_monolithic.datx"
 REAL_DAT_XZ = DATA / "zygo_newview_metropro.dat.xz"  # a whole MetroPro file, xz-compressed, bytes unchanged
-REAL_ASC = DATA / "zygo_newview_ascii_crop.asc"  # a 160 x 120 window of a MetroPro ASCII export
 
 
 def _map(h=24, w=31, nan_corner=True):
@@ -106,24 +105,6 @@ def test_real_metropro_dat_bytes_cut_short_are_refused(tmp_path):
     p.write_bytes(p.read_bytes()[:-4 * 640])  # the last phase row lost
     with pytest.raises(MeasurementFileError, match="Is the file complete"):
         read_measurement(p)
-
-
-def test_real_zygo_ascii_header_and_counts(tmp_path):
-    """A window of a real MetroPro ASCII export (NewView, 20X Mirau): its line 11 reads '1 0 7 1 60 0 0 0 0', so
-    the phase resolution is its *first* number (1: 32768 counts per wave); the counts parsed here on their own."""
-    text = REAL_ASC.read_text(encoding="latin-1")
-    head = text.splitlines()[:14]
-    assert head[10].split() == ["1", "0", "7", "1", "60", "0", "0", "0", "0"]
-    blocks = text.split("\n#\n")
-    counts = np.array(blocks[2].split(), dtype=np.int64).reshape(120, 160)
-    invalid = counts >= 2147483640
-    m = read_measurement(REAL_ASC)
-    assert m.params["format"] == "zygo-ascii" and m.params["phase_res"] == 1
-    assert m.z_nm.shape == (120, 160) and m.n_nan == int(invalid.sum()) == 2
-    assert m.dx_mm == pytest.approx(2.75914e-4, rel=1e-6)  # the camera resolution on line 8, m -> mm
-    expect = counts[~invalid] * 0.5 * 570e-9 * 1.0 / 32768 * 1e9  # scale x wavelength x obliquity / R, nm
-    np.testing.assert_allclose(m.z_nm[~invalid], expect, rtol=1e-12)
-    assert 50 < np.nanstd(m.z_nm) < 2000  # a milled surface at 0.28 um pixels: neither fringes nor metres
 
 
 # --- MetroPro binary .dat ----------------------------------------------------------------------------------------
