@@ -469,12 +469,6 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
         r = w * (b - conv(scatter(t)))
         return float(np.sum(r * r))
 
-    best = None
-    for gamma in np.logspace(-3, -0.5, 9):  # RIFTA's inner loop: the threshold with the smallest residual
-        t = np.maximum(inverse(bw, gamma)[li, lj], tmin)
-        cst = wcost(t)
-        if best is None or cst < best[0]:
-            best = (cst, t, gamma)
     coarse = None
     if len(pts) >= COARSE_MIN_POINTS and 2.0 * s <= tif_fwhm_mm(tif) / COARSE_SPACINGS_PER_FWHM:
         # coarse to fine: the same problem on the lattice of twice the spacing (itself solved so, recursively)
@@ -485,9 +479,14 @@ def _solve_fft(pts, cen, ij, lat, target, tif, tmin, spacing, smoothness, max_it
                 "iterations": 0, "message": "estimate: the coarsest level only", "status": 3,
                 "lattice_spacing_mm": s, "coarse_levels": coarse[1], "estimate_xy": coarse[2],
                 "estimate_times_s": coarse[3], "method_detail": "the coarsest level of the fft solve"})
-        cst = wcost(coarse[0])
-        if cst < best[0]:
-            best = (cst, coarse[0], float("nan"))
+        best = (wcost(coarse[0]), coarse[0], float("nan"))
+    else:
+        best = None
+        for gamma in np.logspace(-3, -0.5, 9):  # RIFTA's inner loop: the threshold with the smallest residual
+            t = np.maximum(inverse(bw, gamma)[li, lj], tmin)
+            cst = wcost(t)
+            if best is None or cst < best[0]:
+                best = (cst, t, gamma)
     _, x0, gamma = best
     lam = smoothness * float(K.max())
     D = neighbour_differences(pts, spacing) if lam > 0 else None
