@@ -75,3 +75,19 @@ def test_coarse_only_is_an_estimate_near_the_full_solve(problem, monkeypatch, pe
     # within 2 % of the initial RMS at 10 spacings per FWHM (the default rule keeps >= 8), 5 % at 5
     assert abs(own - _residual(problem, full)) <= tol * init, (own, _residual(problem, full), init)
     assert est.total_time_s == pytest.approx(full.total_time_s, rel=0.05 * levels)
+
+
+def test_removal_map_in_chunks_is_the_same_sum(monkeypatch):
+    """The machine samples are splatted in chunks (memory of a 10^6-point job): the same removal map."""
+    from polishpath.dwell.target import Grid
+
+    rng = np.random.default_rng(0)
+    g = Grid((-10.0, -10.0), 0.2, (101, 101))
+    xy = rng.uniform(-11, 11, (50001, 2))  # some off the grid
+    t = rng.uniform(0, 1, 50001)
+    tif = gaussian_tif(5.0, fwhm_mm=2.0)
+    whole = removal_map(g, xy, t, tif)
+    monkeypatch.setattr(solver, "SPLAT_CHUNK", 7000)
+    chunked = removal_map(g, xy, t, tif)
+    assert np.abs(chunked - whole).max() <= 1e-12 * whole.max()
+    assert whole.max() > 0
