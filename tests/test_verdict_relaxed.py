@@ -8,12 +8,14 @@ to fail:
 * the relaxed walk (``pseudorandom:relaxed``) has a lower lattice peak than every
   path with a lattice, the grid walk included, each read at its own frequencies
   (the walk over the Poisson-disk set ties it);
-* the Lloyd steps lower the band RMS of the walk over the Poisson-disk set (its
-  density noise is part of that set's deficit);
 * its time density shows no peak (<= 2 dB) at 1/(2h), 1/h, sqrt(2)/h, 2/h where
   the grid walk's shows one, in a window large enough to read it (30 mm);
 * what keeps the verdict from being met: the periodic paths' band RMS stays
   well below the walks'.
+
+Not checked here: that the Lloyd steps lower the walk's band RMS. Over seeds the
+gain is about 3 % (9 % with the footprint at zero feed), smaller than one seed's
+spread, so a reduced case cannot show it reliably (docs/simulation.md).
 """
 
 from __future__ import annotations
@@ -42,23 +44,11 @@ def rows():
 
 
 @pytest.mark.slow
-def test_the_relaxed_walk_has_the_lowest_lattice_peak_of_all_paths(rows):
+def test_the_relaxed_walk_has_a_lower_lattice_peak_than_every_path_with_a_lattice(rows):
     mine = rows["pseudorandom:relaxed"]["lattice_peak_db"]
     others = {k: r["lattice_peak_db"] for k, r in rows.items() if k != "pseudorandom:relaxed"}
     assert mine < min(v for k, v in others.items() if "blue-noise" not in k), (mine, others)
     assert mine < rows["pseudorandom:grid"]["lattice_peak_db"] - 6.0  # far below the grid walk's
-
-
-@pytest.mark.slow
-def test_lloyd_steps_lower_the_band_rms_of_the_walk_over_a_poisson_disk_set():
-    # a mean over three seeds: one seed's spread (+-5 %) is larger than the gain (about 3 %)
-    region = square_region(18.0)
-    planned = {d: [plan(region, H, "pseudorandom", seed=s, dwell_points=d) for s in range(3)]
-               for d in ("blue-noise", "relaxed")}
-    out = compare_planned(planned, seed=0, seeds=3, mode="interference-free", timing="machine", dx_mm=0.01,
-                          patch_bounds=patch_bounds_at_centre(region, 14.0))
-    got = {r["name"]: r["residual_band_rms_nm"] for r in out["rows"]}
-    assert got["relaxed"] < got["blue-noise"], got
 
 
 @pytest.mark.slow

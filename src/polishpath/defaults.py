@@ -43,8 +43,8 @@ DEFAULT_FLATTEN_METHOD = "mabf"
 DEFAULT_SPACING_MM = 0.5
 #: dwell-point set (--dwell-points): the paper's square grid. Issue 26's verdict (docs/simulation.md, "The walk
 #: without a lattice: the verdict") chose it: the lattice-free walks ('relaxed', 'blue-noise') print far lower
-#: lattice peaks (4-5 dB against the grid walk's 17-18 dB) but leave a residual band RMS 3-6 % above the grid
-#: walk's and 20-30 % above the rectangular path's, so the verdict's second condition is not met
+#: lattice peaks (2-5 dB against the grid walk's 13-18 dB) but leave a residual band RMS up to 8 % above the grid
+#: walk's and 21-71 % above the rectangular path's, so the verdict's second condition is not met
 DEFAULT_DWELL_POINTS = "grid"
 #: the job refuses to plan more dwell points than this (memory and time: about 1 KB and 50 us each)
 DEFAULT_MAX_POINTS = 5_000_000
