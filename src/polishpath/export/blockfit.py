@@ -113,7 +113,9 @@ def _fast_atan2(y, x):  # pragma: no cover - numba
 
 
 # Every per-point quantity of a piece's buffer lives in one float array F (n, NCOL) and one bool array B
-# (n, 3): a compiled function taking two arrays keeps its reference counting out of the hot loops.
+# (n, 3): a compiled function taking two arrays keeps its reference counting out of the hot loops, and the
+# helpers that take arrays and allocate nothing are compiled without it (``_nrt=False``: no atomic
+# reference count per call; the block fitter 10 % faster, the same blocks).
 #: F columns: the driven point (P), the same rounded as written (W), planned time, curve parameter, the
 #: region boundary in the interval from this point to the next (fraction, planned time, limit), the curve
 #: at the interval's check fractions (3 x 3)
@@ -128,7 +130,7 @@ NBCOL = 4
 ON_PATH_MM = 1e-9
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _span(breaks, s, u):  # pragma: no cover - numba
     """The span holding u (breaks[s] <= u < breaks[s + 1], the last span beyond), walking from span s: the
     span ``smooth.evaluate``'s binary search finds, a step or two from the previous one along the path."""
@@ -219,7 +221,7 @@ def _check_points(F, B, i, breaks, coeffs, dp, dn, radius, s):  # pragma: no cov
     return s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _seg_dist(x, y, z, F, a, c):  # pragma: no cover - numba
     """Distance of (x, y, z) from segment P[a]-P[c] and the projection's fraction along it (0..1)."""
     e0, e1, e2 = F[c, 0] - F[a, 0], F[c, 1] - F[a, 1], F[c, 2] - F[a, 2]
@@ -233,7 +235,7 @@ def _seg_dist(x, y, z, F, a, c):  # pragma: no cover - numba
     return math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), t
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _bounded(B, i):  # pragma: no cover - numba
     """Whether interval i is a step of the smoothing stage (both ends samples)."""
     return not (B[i, INS] or B[i + 1, INS])
@@ -247,6 +249,14 @@ def _line_fits(F, B, s, c, tol, e_s, dw):  # pragma: no cover - numba
     if dw >= 0:
         dd, _ = _seg_dist(F[dw, 0], F[dw, 1], F[dw, 2], F, s, c)
         if dd > ON_PATH_MM:
+            return 0
+    # the middle point first: on a turn the farthest from the chord, so most misfits are found without the
+    # walk to it (the same answer: a point off by more than tol fails the block wherever it is found; only
+    # check points the walk would have evaluated first are left for later, and they are the same when made)
+    m = (s + c) // 2
+    if s < m < c:
+        dd, _ = _seg_dist(F[m, 0], F[m, 1], F[m, 2], F, s, c)
+        if dd > tol:
             return 0
     d_prev = 0.0
     for i in range(s, c):
@@ -272,7 +282,7 @@ def _line_fits(F, B, s, c, tol, e_s, dw):  # pragma: no cover - numba
     return 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _helix_dist(qx, qy, qz, ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c):  # pragma: no cover - numba
     """Distance of q from the helix point at q's angle (from the start, in the arc's direction), and that
     angle's fraction of the arc; beyond the arc's ends: the distance to the end point."""
@@ -322,7 +332,7 @@ def _sweep(sgn, ax, ay, bx, by):  # pragma: no cover - numba
     return ph
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _circle(F, s, c, m, through_dwell):  # pragma: no cover - numba
     """The XY circle through P[s], P[m], P[c]: (ok, centre x, y, radius, direction, sweep); ``through_dwell``
     (1: P[m] is a dwell point) allows radii up to :data:`MAX_THROUGH_RADIUS_MM`."""
@@ -349,7 +359,7 @@ def _circle(F, s, c, m, through_dwell):  # pragma: no cover - numba
     return True, ox, oy, R, sgn, D
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _written_arc(F, s, c, ox, oy, R, sgn, D, res, dw):  # pragma: no cover - numba
     """The arc as written (end points and incremental centre at the resolution ``res``): (ok, I, J).
 
@@ -418,6 +428,13 @@ def _arc_fits(F, B, s, c, tol, e_s, res, rounding, dw):  # pragma: no cover - nu
         ez = z0 + lam * dz - F[dw, 2]
         if math.sqrt(er * er + ez * ez) > ON_PATH_MM:
             return 0, LINE, 0.0, 0.0
+    # the points at a quarter and three quarters first: the circle passes through the start, middle and end,
+    # so a misfit is likeliest there (the same answer as the walk below, found sooner; as in _line_fits)
+    for q in (s + (c - s) // 4, s + (3 * (c - s)) // 4):
+        if s < q < c:
+            dq, _ = _helix_dist(F[q, 0], F[q, 1], F[q, 2], ox, oy, R, sgn, D, vsx, vsy, z0, dz, F, s, c)
+            if dq > tol:
+                return 0, LINE, 0.0, 0.0
     Iw, Jw = 0.0, 0.0
     if rounding:
         ok, Iw, Jw = _written_arc(F, s, c, ox, oy, R, sgn, D, res, dw)
@@ -468,7 +485,7 @@ def _fits(F, B, s, c, tol, e_s, res, arcs, rounding, dw):  # pragma: no cover - 
     return _arc_fits(F, B, s, c, tol, e_s, res, rounding, dw)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _farthest(F, B, s, lo0, k0, i0, j0, e, dw, breaks, coeffs, dp, dn, radius, span, tol, e_s, res,
               arcs):  # pragma: no cover - numba
     """The farthest block end c in (lo0, e] from P[s] (c = e tried first, then bisection; P[lo0] is known to
