@@ -48,6 +48,10 @@ does not correct for it (it is the feed fluctuation it reports).
 
 from __future__ import annotations
 
+# numba's cache checks this file's own stamp only: the kernels here inline spans.record_step, so a change
+# there (delivery's, issue 29: a piece's last step timed as its length over its feed) needs this file's
+# stamp to change too, or an older cache of these kernels is loaded (this comment changed it)
+
 import math
 
 import numba
