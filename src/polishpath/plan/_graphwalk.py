@@ -183,7 +183,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
     head = start
     wid[start] = walk_id
     vis[start] = 1
-    k = 1
+    k = np.int64(1)  # int64 from the start: a literal 1 compiled tgive_back a second time
     blind = 0
     cap = 64
     cand = np.empty(cap, dtype=np.int64)

@@ -69,7 +69,7 @@ def walk(start, walk_id, comp, backtrack, budget, nodes_n, g, o, w, stats):  # p
     head = start
     wid[start] = walk_id
     vis[start] = 1
-    k = 1
+    k = np.int64(1)  # int64 from the start: a literal 1 compiled tgive_back a second time
     deleted = 0
     blind = 0
     tgt = -1
