@@ -278,7 +278,7 @@ def show(r: dict) -> list[str]:
     outside = sm - ip if math.isfinite(ip) else float("nan")
     target(rate >= TARGET_SAMPLES_PER_S,
            f"smoothing stage {rate / 1e6:.2f} M samples/s (target >= {TARGET_SAMPLES_PER_S / 1e6:.0f} M/s, "
-           f"{TARGET_SAMPLES_PER_S / max(rate, 1e-9):.1f}x short)",
+           f"{rate / TARGET_SAMPLES_PER_S:.2f}x of it)",
            f"the kernels made {made / samples:.2f} samples per sample kept (regions run again to meet their "
            f"times) at {made / ip / 1e6:.2f} M samples/s ({ip:.1f} s), and the stage spent {outside:.1f} s outside them "
            "(the curve, its checks, the figures)")
