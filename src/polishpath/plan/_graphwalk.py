@@ -272,7 +272,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
         if r < 0:
             # the paper's step 7: give back the last points and walk on (budgeted)
             if backtrack > 0 and deleted + backtrack <= budget and k > backtrack + 1:
-                root, _ = tgive_back(root, np.int64(k), np.int64(backtrack), T, stack, P, vis, wid)
+                root, _ = tgive_back(root, k, backtrack, T, stack, P, vis, wid)
                 head = P[0]
                 k -= backtrack
                 deleted += backtrack

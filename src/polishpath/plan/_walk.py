@@ -185,7 +185,7 @@ def walk(start, walk_id, comp, backtrack, budget, nodes_n, g, o, w, stats):  # p
             continue
         # paper step 7: give back the last points and walk on (budgeted)
         if backtrack > 0 and deleted + backtrack <= budget and k > backtrack + 1:
-            root, c = tgive_back(root, np.int64(k), np.int64(backtrack), T, stack, P, vis, wid)
+            root, c = tgive_back(root, k, backtrack, T, stack, P, vis, wid)
             for i in range(1, c):
                 mark_step(P[i - 1], dir_between(P[i - 1], P[i], W), W, diag, False)
             head = P[0]
