@@ -278,17 +278,25 @@ def _fig_directions_continuous(d: np.ndarray):
         return "not drawn: the path has no steps"
     ang = np.arctan2(d[:, 1], d[:, 0])
     share = np.bincount(np.round(ang / (np.pi / 8)).astype(int) % 16, minlength=16) / len(ang)
+    return _direction_rose(share, f"Step directions (no lattice, 16 sectors): {share.min() * 16:.2f}-"
+                                  f"{share.max() * 16:.2f} x an even share")
+
+
+def _direction_rose(share: np.ndarray, title: str):
+    """Polar bars of the share of steps per direction sector, ``share`` (n,) for n = 8 or 16 sectors from E
+    counter-clockwise, with the even share 1/n as a ring and the 8 compass directions labelled."""
+    n = len(share)
     fig = _figure(4.8, 4.8)
     ax = fig.add_subplot(projection="polar")
-    theta = np.arange(16) * np.pi / 8
-    ax.bar(theta, share, width=np.pi / 8 * 0.8, color="tab:blue", alpha=0.8, edgecolor="k")
+    theta = np.arange(n) * 2 * np.pi / n
+    ax.bar(theta, share, width=2 * np.pi / n * 0.8, color="tab:blue", alpha=0.8, edgecolor="k")
     ring = np.linspace(0, 2 * np.pi, 200)
-    ax.plot(ring, np.full_like(ring, 1 / 16), color="tab:red", lw=1, ls="--", label="uniform (1/16)")
-    ax.set_xticks(theta[::2])
-    ax.set_xticklabels([f"{n}\n{100 * x:.1f}%" for n, x in zip(DIRECTION_NAMES, share[::2])], fontsize=7)
+    ax.plot(ring, np.full_like(ring, 1 / n), color="tab:red", lw=1, ls="--", label=f"uniform (1/{n})")
+    every = n // len(DIRECTION_NAMES)
+    ax.set_xticks(theta[::every])
+    ax.set_xticklabels([f"{name}\n{100 * x:.1f}%" for name, x in zip(DIRECTION_NAMES, share[::every])], fontsize=7)
     ax.set_yticklabels([])
-    ax.set_title(f"Step directions (no lattice, 16 sectors): {share.min() * 16:.2f}-{share.max() * 16:.2f} x "
-                 "an even share", fontsize=9)
+    ax.set_title(title, fontsize=9)
     ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=7)
     return fig
 
@@ -306,23 +314,11 @@ def fig_directions(run: RunData):
     total = counts.sum()
     if total == 0:
         return "not drawn: the path has no grid steps"
-    share = counts / total
-    fig = _figure(4.8, 4.8)
-    ax = fig.add_subplot(projection="polar")
-    theta = np.arange(8) * np.pi / 4
-    ax.bar(theta, share, width=np.pi / 4 * 0.8, color="tab:blue", alpha=0.8, edgecolor="k")
-    ring = np.linspace(0, 2 * np.pi, 200)
-    ax.plot(ring, np.full_like(ring, 1 / 8), color="tab:red", lw=1, ls="--", label="uniform (1/8)")
-    ax.set_xticks(theta)
-    ax.set_xticklabels([f"{n}\n{100 * x:.1f}%" for n, x in zip(DIRECTION_NAMES, share)], fontsize=7)
-    ax.set_yticklabels([])
     used = int(np.count_nonzero(counts))
     t = f"Step directions (grid frame): {used} of 8 used"
     if other:
         t += f", {other} other steps"
-    ax.set_title(t, fontsize=9)
-    ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=7)
-    return fig
+    return _direction_rose(counts / total, t)
 
 
 def fig_turn_angles(run: RunData):
