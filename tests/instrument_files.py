@@ -88,18 +88,53 @@ def write_zygo_ascii(path, z_nm, *, lateral_res_m=1e-4, wavelength_m=632.8e-9, s
     return Path(path)
 
 
-def write_4d_h5(path, z_nm, *, wavelength="632.8 nm", xpix=None, sentinel=3.4028235e38) -> Path:
-    """A 4Sight-style .h5: measurement0/genraw/data in waves (float32), masked pixels the float32 sentinel."""
+def write_4d_h5(path, z_nm, *, wavelength="632.8 nm", xpix=None, sentinel=3.4028235e38, height_units=None,
+                wedge=None, version=None) -> Path:
+    """A 4Sight-style .h5: measurement0/genraw/data in waves (float32), masked pixels the float32 sentinel.
+
+    ``height_units``, ``wedge`` and ``version`` add the attributes a real 4Sight 1.8 file carries
+    (``height_units = "wv"``, ``wedge = 0.5``, the ``/4D`` group's ``_4Sight_version``); with ``height_units``
+    "nm" the data are written in nm.
+    """
     import h5py
 
     z = np.asarray(z_nm, dtype=np.float64)
     wl_nm = float(str(wavelength).split()[0]) if isinstance(wavelength, str) else float(wavelength)
-    waves = np.where(np.isfinite(z), z / wl_nm, sentinel).astype(np.float32)
+    per = {"nm": 1.0, "um": 1e3}.get(height_units or "wv", wl_nm)
+    waves = np.where(np.isfinite(z), z / per, sentinel).astype(np.float32)
     with h5py.File(path, "w") as f:
         g = f.create_group("measurement0").create_group("genraw")
         g.create_dataset("data", data=waves)
         g.attrs["wavelength"] = np.bytes_(wavelength) if isinstance(wavelength, str) else wavelength
         if xpix is not None:
             g.attrs["xpix"] = np.bytes_(xpix)
+        if height_units is not None:
+            g.attrs["height_units"] = np.bytes_(height_units)
+        if wedge is not None:
+            g.attrs["wedge"] = np.float32(wedge)
+        if version is not None:
+            f.create_group("4D").attrs["_4Sight_version"] = np.bytes_(version)
         f["measurement0"].create_dataset("Detectormask", data=np.isfinite(z).astype(np.uint8))
+    return Path(path)
+
+
+def write_4d_insight(path, z_nm, *, wavelength_nm=632.8, pixel_um=None, measurements=1) -> Path:
+    """A 4D InSight .4D (HDF5): Measurement/SurfaceInWaves/Data in waves (float32, NaN without data), the
+    wavelength as Measurement's WavelengthInNanometers, the pixel size as CalibratedFrames/image_0's
+    PixelSizeInMicrons; ``measurements > 1`` writes Measurement/Measurement_<n> groups instead."""
+    import h5py
+
+    z = np.asarray(z_nm, dtype=np.float64)
+    waves = (z / (wavelength_nm or 632.8)).astype(np.float32)
+    with h5py.File(path, "w") as f:
+        m = f.create_group("Measurement")
+        groups = [m] if measurements == 1 else [m.create_group(f"Measurement_{k}") for k in range(measurements)]
+        for g in groups:
+            if wavelength_nm is not None:
+                g.attrs["WavelengthInNanometers"] = np.float64(wavelength_nm)
+            g.create_group("SurfaceInWaves").create_dataset("Data", data=waves)
+            g.create_group("Intensity").create_dataset("Data", data=np.ones_like(waves))
+            if pixel_um is not None:
+                g.create_group("CalibratedFrames").create_group("image_0").attrs["PixelSizeInMicrons"] = \
+                    np.float64(pixel_um)
     return Path(path)

@@ -125,6 +125,14 @@ CASES = [
      "unknown unit 'furlong' in the pixel size", "--dx"),
     ("h5 without a pixel size", lambda t: _h5(t, lambda f: _4d_group(f)),
      "does not state its pixel size", "--dx"),
+    ("h5 in an unknown height unit", lambda t: _h5(t, lambda f: _4d_units(f, b"furlong")),
+     "unknown height unit 'furlong' in measurement0/genraw's height_units", "waves (wv) or nm"),
+    ("4D InSight file of several measurements", lambda t: _insight(t, measurements=3),
+     "Measurement holds 3 measurements", "one averaged surface measurement per file"),
+    ("4D InSight file without a wavelength", lambda t: _insight(t, wavelength_nm=None),
+     "WavelengthInNanometers is missing", "Save the file again from 4D InSight"),
+    ("h5 of neither 4D layout", lambda t: _h5(t, lambda f: f.create_group("Something")),
+     "has no measurement0/genraw/data (the 4Sight surface) and no Measurement/SurfaceInWaves", "as .4D"),
     # --- Zygo .datx
     ("datx that is not HDF5", lambda t: _text(t, "m.datx", "Data Surface\n"),
      "is not a readable HDF5 (.datx) file", "Save it again from Mx"),
@@ -150,6 +158,18 @@ CASES = [
     ("profile with text inside the data", lambda t: _text(t, "trace.txt", "0 1\n1 2\nend of data\n2 3\n"),
      "non-numeric line inside the data", "prefix them with '#'"),
 ]
+
+
+def _4d_units(f, units):
+    _4d_group(f, xpix=b"0.1 mm")
+    f["measurement0/genraw"].attrs["height_units"] = units
+
+
+def _insight(tmp_path, **kw):
+    pytest.importorskip("h5py")
+    from instrument_files import write_4d_insight
+
+    return write_4d_insight(tmp_path / "m.4D", _z(), pixel_um=50.0, **kw)
 
 
 def _dat_no_phase(tmp_path):

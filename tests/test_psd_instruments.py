@@ -192,14 +192,55 @@ def test_4d_h5_waves_to_nm_sentinel_and_pixel_size(tmp_path):
     np.testing.assert_allclose(m.z_nm, z, rtol=1e-6, atol=1e-4, equal_nan=True)
 
 
+def test_4d_h5_in_the_layout_of_a_real_4sight_file(tmp_path):
+    """The attributes a real 4Sight 1.8 file carries (M4's test/data/img_0046.h5: height_units "wv", the
+    wavelength as "632.79998799999998000000 nm", xpix "0.00711100000000000010 mm", wedge 0.5; SOURCES.md):
+    heights = waves x that wavelength, the pixel from xpix, the wedge reported and not applied."""
+    pytest.importorskip("h5py")
+    z = _map()
+    p = write_4d_h5(tmp_path / "m.h5", z, wavelength="632.79998799999998000000 nm",
+                    xpix="0.00711100000000000010 mm", height_units="wv", wedge=0.5, version="1.8")
+    m = read_measurement(p)
+    assert m.dx_mm == pytest.approx(0.007111, rel=1e-12) and m.params["dx_source"] == "xpix"
+    assert m.params["wavelength_nm"] == pytest.approx(632.799988, rel=1e-12)
+    assert m.params["wedge"] == 0.5 and m.params["height_units"] == "wv" and m.params["software"] == "4Sight 1.8"
+    assert m.n_nan == 12
+    np.testing.assert_allclose(m.z_nm, z, rtol=1e-6, atol=1e-4, equal_nan=True)
+
+
+def test_4d_h5_heights_saved_in_nm_are_not_scaled_by_the_wavelength(tmp_path):
+    pytest.importorskip("h5py")
+    z = _map()
+    m = read_measurement(write_4d_h5(tmp_path / "m.h5", z, xpix="0.1 mm", height_units="nm"))
+    np.testing.assert_allclose(m.z_nm, z, rtol=1e-6, atol=1e-4, equal_nan=True)
+    m = read_measurement(write_4d_h5(tmp_path / "u.h5", z, xpix="0.1 mm", height_units="um"))
+    np.testing.assert_allclose(m.z_nm, z, rtol=1e-6, atol=1e-3, equal_nan=True)
+
+
+def test_4d_insight_file_waves_nan_and_pixel_size(tmp_path):
+    pytest.importorskip("h5py")
+    from instrument_files import write_4d_insight
+
+    z = _map()
+    p = write_4d_insight(tmp_path / "m.4D", z, wavelength_nm=632.8, pixel_um=55.0)
+    m = read_measurement(p)
+    assert m.params["layout"].startswith("4D InSight") and m.params["dx_source"] == "PixelSizeInMicrons"
+    assert m.dx_mm == pytest.approx(0.055) and m.n_nan == 12
+    np.testing.assert_allclose(m.z_nm, z, rtol=1e-6, atol=1e-4, equal_nan=True)
+    p = write_4d_insight(tmp_path / "n.4D", z, wavelength_nm=632.8)
+    with pytest.raises(MeasurementFileError, match="does not state its pixel size"):
+        read_measurement(p)
+    assert read_measurement(p, dx_mm=0.3).dx_mm == 0.3
+
+
 # --- every interferometer format: the rows as an error map -----------------------------------------------------
 
 
-@pytest.mark.parametrize("fmt", ["dat", "asc", "h5", "datx"])
+@pytest.mark.parametrize("fmt", ["dat", "asc", "h5", "4D", "datx"])
 def test_interferometer_rows_go_up_in_y_as_an_error_map(tmp_path, fmt, recwarn):
     """The file's first row is the top of the map (largest y): the error map's row 0 is its bottom."""
     z = _map(nan_corner=False)  # the file's row 0 is the highest: heights rise with y on the part
-    if fmt in ("h5", "datx"):
+    if fmt in ("h5", "4D", "datx"):
         pytest.importorskip("h5py")
     if fmt == "dat":
         p = write_metropro_dat(tmp_path / "m.dat", z, lateral_res_m=1e-4)
@@ -207,6 +248,10 @@ def test_interferometer_rows_go_up_in_y_as_an_error_map(tmp_path, fmt, recwarn):
         p = write_zygo_ascii(tmp_path / "m.asc", z, lateral_res_m=1e-4)
     elif fmt == "h5":
         p = write_4d_h5(tmp_path / "m.h5", z, xpix="0.1 mm")
+    elif fmt == "4D":
+        from instrument_files import write_4d_insight
+
+        p = write_4d_insight(tmp_path / "m.4D", z, pixel_um=100.0)
     else:
         from polishpath.psd.io import write_datx_like
 

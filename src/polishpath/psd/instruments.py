@@ -1,4 +1,5 @@
-"""Instruments' own files: Zygo MetroPro ``.dat`` (binary) and Zygo ASCII, 4D Technology HDF5.
+"""Instruments' own files: Zygo MetroPro ``.dat`` (binary) and Zygo ASCII, 4D Technology HDF5 (4Sight
+``.h5`` and 4D InSight ``.4D``).
 
 Each reader returns the map's heights in nm, its pixel size in mm and what it
 found (``params``), which :func:`polishpath.psd.read_measurement` makes a
@@ -38,14 +39,25 @@ Zygo ASCII (``.asc``: MetroPro's "Zygo ASCII Data File - Format 2")
     line 11 reads ``1 0 7 1 60 0 0 0 0``). The data follow as
     whitespace-separated integer counts: the intensity block, ``#``, the
     phase block (row after row), ``#``; the counts and "no data" as in ``.dat``.
-4D Technology HDF5 (``.h5`` from 4Sight / 4D InSight)
-    The surface in ``measurement0/genraw/data`` (float32, waves), the
-    wavelength as the group's ``wavelength`` attribute (text such as
-    ``"632.8 nm"``, or a number of nm); pixels without data hold a huge
-    sentinel (> 1e38). The file does not carry a calibrated pixel size that
-    the open readers use: give it (``dx_mm`` / ``--dx`` / ``[error_map]
-    dx_mm``) unless the group has an ``xpix`` attribute with a unit
-    (``"0.12 mm"``).
+4D Technology HDF5, 4Sight layout (``.h5`` from 4Sight, PhaseCam / AccuFiz)
+    The surface in ``measurement0/genraw/data`` (float32), in the group's
+    ``height_units`` (``"wv"``: waves; ``nm``, ``um``, ``mm`` taken as
+    they say; absent: waves), the wavelength as the group's ``wavelength``
+    attribute (text such as ``"632.79998799999998000000 nm"``, or a number of
+    nm); pixels without data hold float32's largest value (> 1e38). The
+    pixel size is the group's ``xpix`` with its unit (``"0.00711100000000000010
+    mm"`` in a real 4Sight 1.8 file); without it give ``dx_mm``. The group's
+    ``wedge`` (0.5 for a surface seen in reflection) is reported in
+    ``params["wedge"]`` and **not** applied: 4Sight applied it when it made
+    the data, and the open readers (opticalib's ``fromPhaseCam4020``, the
+    FizCam reader) take heights = data x wavelength; a file saved as OPD
+    needs ``[error_map] scale``.
+4D Technology HDF5, 4D InSight layout (``.4D``, also PhaseCam 6110)
+    The surface in ``Measurement/SurfaceInWaves/Data`` (waves), the
+    wavelength as ``Measurement``'s ``WavelengthInNanometers``; pixels
+    without data are NaN; the pixel size the first ``PixelSizeInMicrons``
+    attribute found under ``Measurement`` (else give ``dx_mm``). A file of
+    several measurements (``Measurement/Measurement_<n>``) is refused.
 """
 
 from __future__ import annotations
@@ -248,15 +260,107 @@ def _value_unit_mm(text: str, what: str, name: str, to: dict[str, float]) -> flo
                                    fix) from None
 
 
+#: 4Sight ``height_units`` -> nm per unit (``None``: waves, times the file's wavelength)
+FOURD_HEIGHT_UNITS = {"wv": None, "waves": None, "wave": None, "": None, "nm": 1.0, "um": 1e3, "µm": 1e3,
+                      "mm": 1e6}
+
+
+def _first_attr(group, name: str):
+    """The first ``name`` attribute on ``group`` or any group or dataset below it (None if none has it)."""
+    if name in group.attrs:
+        return group.attrs[name]
+    found = []
+
+    def visit(_key, obj):
+        if name in obj.attrs:
+            found.append(obj.attrs[name])
+            return True
+        return None
+
+    group.visititems(visit)
+    return found[0] if found else None
+
+
+def _4sight(f, name: str) -> tuple[np.ndarray, float, float | None, dict[str, Any]]:
+    """The 4Sight layout: (waves-or-units data, nm per data unit, dx_mm from xpix or None, params)."""
+    g = f["measurement0/genraw"]
+    z = np.array(g["data"][()], dtype=np.float64)
+    if "wavelength" not in g.attrs:
+        raise MeasurementFileError(f"{name}: measurement0/genraw has no wavelength attribute, so its waves "
+                                   "cannot be turned into nm.", "Save the file again from 4Sight.")
+    wl = g.attrs["wavelength"]
+    wl_nm = (_value_unit_mm(_text_attr(wl), "wavelength", name, {"nm": 1.0, "": 1.0, "um": 1e3, "µm": 1e3})
+             if isinstance(np.asarray(wl).ravel()[0], (bytes, str)) else float(np.asarray(wl).ravel()[0]))
+    if not (np.isfinite(wl_nm) and wl_nm > 0):
+        raise MeasurementFileError(f"{name}: the wavelength is {wl_nm!r} nm.", "Save the file again from 4Sight.")
+    units = _text_attr(g.attrs["height_units"]).strip() if "height_units" in g.attrs else ""
+    key = units.lower().replace("μ", "µ")
+    if key not in FOURD_HEIGHT_UNITS:
+        raise MeasurementFileError(f"{name}: unknown height unit {units!r} in measurement0/genraw's height_units "
+                                   f"(known: {', '.join(sorted(k for k in FOURD_HEIGHT_UNITS if k))}).",
+                                   "Save the surface from 4Sight in waves (wv) or nm.")
+    per_unit = FOURD_HEIGHT_UNITS[key]
+    dx = None
+    if "xpix" in g.attrs:
+        dx = _value_unit_mm(_text_attr(g.attrs["xpix"]), "pixel size (xpix)", name,
+                            {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3})
+    params: dict[str, Any] = {"format": "4d-h5", "layout": "4Sight measurement0/genraw", "wavelength_nm": wl_nm,
+                              "height_units": units or "wv (assumed: no height_units)"}
+    if "wedge" in g.attrs:
+        params["wedge"] = float(np.asarray(g.attrs["wedge"]).ravel()[0])
+    if "4D" in f and "_4Sight_version" in f["4D"].attrs:
+        params["software"] = "4Sight " + _text_attr(f["4D"].attrs["_4Sight_version"])
+    return z, (wl_nm if per_unit is None else per_unit), dx, params
+
+
+def _insight(f, name: str) -> tuple[np.ndarray, float, float | None, dict[str, Any]]:
+    """The 4D InSight ``.4D`` layout: (waves, nm per wave, dx_mm from PixelSizeInMicrons or None, params)."""
+    g = f["Measurement"]
+    if "SurfaceInWaves" not in g:
+        n = sum(1 for k in g if k.startswith("Measurement_"))
+        raise MeasurementFileError(
+            f"{name}: Measurement holds {n} measurements (Measurement_<n>), not one surface." if n else
+            f"{name}: Measurement has no SurfaceInWaves (the 4D InSight surface).",
+            "Save one averaged surface measurement per file from 4D InSight.")
+    z = np.array(g["SurfaceInWaves/Data"][()], dtype=np.float64)
+    wl = g.attrs.get("WavelengthInNanometers")
+    wl_nm = float(np.asarray(wl).ravel()[0]) if wl is not None else float("nan")
+    if not (np.isfinite(wl_nm) and wl_nm > 0):
+        raise MeasurementFileError(f"{name}: Measurement's WavelengthInNanometers is "
+                                   f"{'missing' if wl is None else repr(wl_nm)}, so its waves cannot be turned into "
+                                   "nm.", "Save the file again from 4D InSight.")
+    pix_um = _first_attr(g, "PixelSizeInMicrons")
+    dx = None
+    if pix_um is not None:
+        dx = float(np.asarray(pix_um).ravel()[0]) * 1e-3
+        if not (np.isfinite(dx) and dx > 0):
+            dx = None
+    params: dict[str, Any] = {"format": "4d-h5", "layout": "4D InSight Measurement/SurfaceInWaves",
+                              "wavelength_nm": wl_nm, "height_units": "waves"}
+    return z, wl_nm, dx, params
+
+
 def read_4d_h5(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
-    """Read a 4D Technology HDF5 file (4Sight / 4D InSight ``.h5``; layout in the module's docstring).
+    """Read a 4D Technology HDF5 file: 4Sight ``.h5`` or 4D InSight ``.4D`` (layouts in the module's docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+    dx_mm : float, optional
+        Pixel size, mm, instead of the file's (``xpix`` / ``PixelSizeInMicrons``).
 
     Returns
     -------
-    z_nm, dx_mm, params
-        As :func:`read_metropro_dat`; heights = waves x the file's wavelength.
+    z_nm : (height, width) float64
+        Heights, nm (data x the file's wavelength, or x its ``height_units``); NaN where 4D had no data; the
+        rows as stored (top first).
+    dx_mm : float
+        Pixel size, mm.
+    params : dict
+        Format and layout, wavelength, height units, ``wedge`` (reported, not applied), where the pixel size
+        came from, NaN count.
     """
-    h5py = require("h5py", "reading 4D Technology .h5 files", extra="zygo")
+    h5py = require("h5py", "reading 4D Technology .h5 / .4D files", extra="zygo")
     p = Path(path)
     try:
         f = h5py.File(p, "r")
@@ -265,35 +369,29 @@ def read_4d_h5(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dic
                                    "Is the file complete? Save it again from 4Sight as .h5, or give the map as "
                                    "text.") from None
     with f:
-        if "measurement0/genraw/data" not in f:
-            raise MeasurementFileError(f"{p.name} has no measurement0/genraw/data (the 4D surface).",
-                                       "Save the measurement from 4Sight as .h5 with its surface data.")
-        g = f["measurement0/genraw"]
-        z = np.array(g["data"][()], dtype=np.float64)
-        if "wavelength" not in g.attrs:
-            raise MeasurementFileError(f"{p.name}: measurement0/genraw has no wavelength attribute, so its waves "
-                                       "cannot be turned into nm.", "Save the file again from 4Sight.")
-        wl = g.attrs["wavelength"]
-        wl_nm = (_value_unit_mm(_text_attr(wl), "wavelength", p.name, {"nm": 1.0, "": 1.0, "um": 1e3, "µm": 1e3})
-                 if isinstance(np.asarray(wl).ravel()[0], (bytes, str)) else float(np.asarray(wl).ravel()[0]))
-        if not (np.isfinite(wl_nm) and wl_nm > 0):
-            raise MeasurementFileError(f"{p.name}: the wavelength is {wl_nm!r} nm.", "Save the file again from 4Sight.")
-        xpix = _text_attr(g.attrs["xpix"]) if "xpix" in g.attrs else None
+        if "measurement0/genraw/data" in f:
+            z, nm_per, dx_file, params = _4sight(f, p.name)
+        elif "Measurement" in f and isinstance(f["Measurement"], h5py.Group):
+            z, nm_per, dx_file, params = _insight(f, p.name)
+        else:
+            raise MeasurementFileError(f"{p.name} has no measurement0/genraw/data (the 4Sight surface) and no "
+                                       "Measurement/SurfaceInWaves (4D InSight's).",
+                                       "Save the measurement from 4Sight as .h5 (or 4D InSight as .4D) with its "
+                                       "surface data.")
     if z.ndim != 2 or min(z.shape) < 2:
         raise MeasurementFileError(f"{p.name}: the 4D surface is not a 2D map (shape {z.shape}).",
                                    "Save one surface measurement per file from 4Sight.")
     invalid = ~(np.abs(z) < FOURD_INVALID)  # the sentinel, and NaN as written
     n_inf = int(np.isinf(z).sum())
-    z = z * wl_nm
+    z = z * nm_per
     z[invalid] = np.nan
     if dx_mm is not None:
         dx, src = float(dx_mm), "argument"
-    elif xpix is not None:
-        dx, src = _value_unit_mm(xpix, "pixel size (xpix)", p.name, {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3}), "xpix"
+    elif dx_file is not None:
+        dx, src = dx_file, ("xpix" if params["layout"].startswith("4Sight") else "PixelSizeInMicrons")
     else:
         raise MeasurementFileError(f"{p.name} does not state its pixel size.",
                                    "Pass the pixel size (dx_mm / --dx / [error_map] dx_mm) in mm.")
-    params: dict[str, Any] = {"format": "4d-h5", "units_assumed": [], "wavelength_nm": wl_nm, "dx_source": src,
-                              "n_nan": int(np.isnan(z).sum()), "no_data_value": FOURD_INVALID, "rows": _ROWS,
-                              "infinite_as_no_data": n_inf}
+    params.update({"units_assumed": [], "dx_source": src, "n_nan": int(np.isnan(z).sum()),
+                   "no_data_value": FOURD_INVALID, "rows": _ROWS, "infinite_as_no_data": n_inf})
     return z, dx, params

@@ -130,7 +130,7 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
     if suffix == ".datx":
         m = _read_datx(path, dx_mm=dx_mm, lateral_unit=lateral_unit, height_unit=height_unit)
     elif (suffix == ".dat" and instruments.is_metropro_dat(path)) or (suffix == ".asc" and instruments.is_zygo_ascii(path)) \
-            or suffix in (".h5", ".hdf5"):
+            or suffix in (".h5", ".hdf5", ".4d"):
         read = {".dat": instruments.read_metropro_dat, ".asc": instruments.read_zygo_ascii}.get(suffix,
                                                                                               instruments.read_4d_h5)
         z, dx, params = read(path, dx_mm=dx_mm)
