@@ -138,3 +138,58 @@ def write_4d_insight(path, z_nm, *, wavelength_nm=632.8, pixel_um=None, measurem
                 g.create_group("CalibratedFrames").create_group("image_0").attrs["PixelSizeInMicrons"] = \
                     np.float64(pixel_um)
     return Path(path)
+
+
+def write_digital_surf(path, z_nm, *, dx_mm=0.0005, dy_mm=None, z_unit="µm", xy_unit="mm", bits=32,
+                       studiable=None, acquisition=1, nonmeasured=True, inversion=0, compressed=False,
+                       comment=b"", n_objects=1, truncate=0) -> Path:
+    """A Digital Surf .sur / .pro (little-endian, 512-byte header; Gwyddion's surffile / SurfaceTopography's SUR
+    layout): a 1D ``z_nm`` is a profile (studiable 1, one line), a 2D one a surface (studiable 2) with row 0 the
+    file's first line. NaN -> the "not measured" code (smallest point - 2); ``compressed`` writes the
+    DSCOMPRESSED form (one zlib stream behind a one-entry directory)."""
+    import zlib
+
+    z = np.atleast_2d(np.asarray(z_nm, dtype=np.float64))
+    ny, nx = z.shape
+    per_nm = {"m": 1e9, "mm": 1e6, "µm": 1e3, "um": 1e3, "nm": 1.0}[z_unit]
+    finite = z[np.isfinite(z)]
+    span = float(finite.max() - finite.min()) if finite.size else 1.0
+    levels = 30000 if bits == 16 else 1 << 30
+    step_nm = max(span, 1e-6) / levels  # heights quantised to span / levels
+    c = np.round(np.nan_to_num(z - finite.min()) / step_nm).astype(np.int64) + 10
+    zmin, zmax = int(c[np.isfinite(z)].min()), int(c[np.isfinite(z)].max())
+    valid = np.isfinite(z)
+    if inversion in (1, 2, 3):  # the file holds the inverted heights (same range): the reader inverts them back
+        c = np.where(valid, zmax + zmin - c, c)
+    if inversion == 2:  # ... and mirrored in x (2) or y (3)
+        c, valid = c[:, ::-1], valid[:, ::-1]
+    elif inversion == 3:
+        c, valid = c[::-1], valid[::-1]
+    c[~valid] = zmin - 2
+    stored = c
+    head = bytearray(512)
+    head[0:12] = b"DSCOMPRESSED" if compressed else b"DIGITAL SURF"
+    stype = studiable if studiable is not None else (1 if ny == 1 else 2)
+    struct.pack_into("<hHhh", head, 12, 0, n_objects, 1, stype)
+    head[20:24] = b"part"
+    struct.pack_into("<hhhhh", head, 80, 0, acquisition, 1, 1 if nonmeasured else 0, 1)
+    struct.pack_into("<h", head, 98, bits)
+    struct.pack_into("<iiiiI", head, 100, zmin, zmax, nx, ny, nx * ny)
+    per_xy = {"m": 1e-3, "mm": 1.0, "µm": 1e3, "um": 1e3, "nm": 1e6}[xy_unit]
+    struct.pack_into("<fff", head, 120, dx_mm * per_xy, (dy_mm or dx_mm) * per_xy, step_nm / per_nm)
+    for at, text in ((132, "X"), (148, "Y"), (164, "Z"), (180, xy_unit), (196, xy_unit), (212, z_unit),
+                     (228, xy_unit), (244, xy_unit), (260, z_unit)):
+        b = text.encode("latin-1")
+        head[at:at + len(b)] = b
+    struct.pack_into("<fff", head, 276, 1.0, 1.0, 1.0)
+    struct.pack_into("<H", head, 290, inversion)
+    struct.pack_into("<HH", head, 334, len(comment), 0)
+    struct.pack_into("<f", head, 474, 12.5)  # a z offset (piston) the reader leaves out
+    data = stored.astype("<i2" if bits == 16 else "<i4").tobytes()
+    if compressed:
+        zipped = zlib.compress(data)
+        data = struct.pack("<III", 1, len(data), len(zipped)) + zipped
+        struct.pack_into("<I", head, 324, len(data))
+    out = bytes(head) + comment + data
+    Path(path).write_bytes(out[:len(out) - truncate] if truncate else out)
+    return Path(path)

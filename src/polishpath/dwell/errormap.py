@@ -228,8 +228,13 @@ def read_error_map(file, *, height_unit: str | None = None, lateral_unit: str | 
 
     m = read_measurement(p, lateral_unit=lateral_unit, height_unit=height_unit, dx_mm=dx_mm)
     if m.kind != "map":
-        raise MeasurementFileError(f"{p.name} holds a profile, not a surface map.",
-                                   "Give a 2D map (.datx, a grid of heights, or x y z points).")
+        raise MeasurementFileError(
+            f"{p.name} holds a profile ({m.z_nm.size} samples along one line, {m.params.get('format', 'text')}), "
+            "not a surface map: a profile says nothing about the heights beside its line, so no dwell times can be "
+            "solved from it.",
+            "Give a 2D map (.datx, .dat, .asc, .h5, .sur surface, a grid of heights, or x y z points); for a "
+            "rotationally symmetric error fitted to the profile, give it as Zernike terms in a .toml ([zernike]); "
+            "'polishpath psd' reads the profile itself.")
     assumed = list(m.params.get("units_assumed") or [])
     if assumed:
         warnings.warn(f"{p.name}: {' and '.join(assumed)} assumed (the file does not say); "

@@ -395,3 +395,161 @@ def read_4d_h5(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dic
     params.update({"units_assumed": [], "dx_source": src, "n_nan": int(np.isnan(z).sum()),
                    "no_data_value": FOURD_INVALID, "rows": _ROWS, "infinite_as_no_data": n_inf})
     return z, dx, params
+
+
+# --- Digital Surf .sur / .pro (what Taylor Hobson's TalyMap / TalyProfile, Mountains-based, save) -------------
+
+#: Digital Surf magic numbers -> compressed data
+SUR_MAGIC = {b"DIGITAL SURF": False, b"DSCOMPRESSED": True}
+#: Digital Surf studiable types read here
+SUR_PROFILE, SUR_SURFACE = 1, 2
+#: Digital Surf acquisition types (the header's code), for ``params["acquisition"]``
+SUR_ACQUISITION = {0: "unknown", 1: "contact stylus", 2: "scanning optical gauge", 3: "thermocouple", 4: "unknown",
+                   5: "contact stylus with skid", 6: "AFM", 7: "STM", 8: "video", 9: "interferometer",
+                   10: "structured light projection"}
+_SUR_UNITS_M = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "nm": 1e-9, "a": 1e-10, "å": 1e-10, "pm": 1e-12}
+
+
+def is_digital_surf(path: Path) -> bool:
+    """Whether ``path`` starts with a Digital Surf magic (``DIGITAL SURF`` / ``DSCOMPRESSED``)."""
+    with open(path, "rb") as f:
+        return f.read(12) in SUR_MAGIC
+
+
+def _sur_text(raw: bytes, at: int, n: int) -> str:
+    return raw[at:at + n].split(b"\0")[0].decode("latin-1").strip()
+
+
+def _sur_unit_m(unit: str, what: str, name: str) -> float:
+    u = unit.strip().lower().replace("μ", "µ").replace("\u00b5", "µ")
+    if u not in _SUR_UNITS_M:
+        raise MeasurementFileError(f"{name}: unknown {what} unit {unit!r} in its Digital Surf header "
+                                   f"(known: {', '.join(sorted(_SUR_UNITS_M))}).",
+                                   "Save the studiable again from TalyMap / Mountains in metric units.")
+    return _SUR_UNITS_M[u]
+
+
+def read_digital_surf(path, dx_mm: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
+    """Read a Digital Surf ``.sur`` / ``.pro`` file: one profile or one surface.
+
+    The layout, as Gwyddion's ``surffile`` module and SurfaceTopography's ``SUR`` reader document it (and
+    surfalize for the compressed form and the no-data code): a 512-byte little-endian header, then a comment
+    and a private zone of the sizes it gives, then the points as int16 or int32, line after line (x fastest).
+    Header fields by byte offset: magic ``DIGITAL SURF`` (or ``DSCOMPRESSED``) at 0, format int16 at 12 (0: PC),
+    object count uint16 at 14, version at 16, studiable type at 18 (1 profile, 2 surface), object and operator
+    names (30 characters) at 20 and 50, acquisition type at 82, "non-measured points" flag at 86, bits per point
+    at 98 (16 or 32), smallest and largest point int32 at 100 and 104, points per line and lines int32 at 108
+    and 112, total points at 116, x, y, z steps float32 at 120, 124, 128, the axis names at 132, 148, 164 and the
+    step units (16 characters) at 180 (x), 196 (y), 212 (z), the inversion code uint16 at 290 (1 z inverted;
+    2 and 3 also mirrored in x or y), compressed data size uint32 at 324, comment and private zone sizes uint16
+    at 334 and 336, the z offset float32 at 474. Height = point x z step in the z step unit; a point equal to
+    the smallest point - 2 is "not measured" when the flag is 1. The z offset is a constant (piston) and is
+    left out (reported in ``params``).
+
+    Parameters
+    ----------
+    path : str or Path
+    dx_mm : float, optional
+        Sampling interval / pixel width, mm, instead of the header's x step.
+
+    Returns
+    -------
+    z_nm : (n,) or (lines, points) float64
+        Heights, nm: a profile (one line) as a 1D array, a surface as a 2D array with the file's first line as
+        row 0; NaN where the instrument measured nothing.
+    dx_mm : float
+        Sampling interval along x, mm.
+    params : dict
+        ``format`` "digital-surf", ``kind`` ("profile" / "map"), ``dy_mm`` for a surface, the acquisition type,
+        object name, units, NaN count, inversion applied.
+    """
+    import zlib
+
+    p = Path(path)
+    raw = p.read_bytes()
+    magic = raw[:12]
+    if magic not in SUR_MAGIC:
+        raise MeasurementFileError(f"{p.name} is not a Digital Surf file (no 'DIGITAL SURF' header).",
+                                   "Save the studiable from TalyMap / TalyProfile / Mountains as .sur.")
+    if len(raw) < 512:
+        raise MeasurementFileError(f"{p.name} starts like a Digital Surf file but has {len(raw)} bytes, fewer than its "
+                                   "header alone (512).", "Is the file complete? Copy it again.")
+    fmt, n_obj, _version, stype = struct.unpack_from("<hHhh", raw, 12)
+    acq, = struct.unpack_from("<h", raw, 82)
+    nonmeasured, = struct.unpack_from("<h", raw, 86)
+    bits, = struct.unpack_from("<h", raw, 98)
+    zmin, _zmax, nx, ny, npts = struct.unpack_from("<iiiiI", raw, 100)
+    sx, sy, sz = struct.unpack_from("<fff", raw, 120)
+    ux, uy, uz = (_sur_text(raw, o, 16) for o in (180, 196, 212))
+    inversion, = struct.unpack_from("<H", raw, 290)
+    zipped, = struct.unpack_from("<I", raw, 324)
+    n_comment, n_private = struct.unpack_from("<HH", raw, 334)
+    z_offset, = struct.unpack_from("<f", raw, 474)
+    fix = "Save one profile or one surface per file from TalyMap / TalyProfile / Mountains (.sur)."
+    if fmt != 0:
+        raise MeasurementFileError(f"{p.name}: a Digital Surf file in format {fmt} (0, the PC byte order, expected).",
+                                   fix)
+    if n_obj > 1 or stype not in (SUR_PROFILE, SUR_SURFACE):
+        raise MeasurementFileError(f"{p.name} holds a Digital Surf studiable of type {stype} with {n_obj} objects "
+                                   "(one profile, type 1, or one surface, type 2, is read).", fix)
+    if bits not in (16, 32) or nx < 1 or ny < 1 or npts != nx * ny:
+        raise MeasurementFileError(
+            f"{p.name}: its Digital Surf header is inconsistent ({nx} points x {ny} lines but {npts} points, "
+            f"{bits} bits a point).", "The file is damaged: save it again from TalyMap / Mountains.")
+    start = 512 + n_comment + n_private
+    dtype = np.dtype("<i2" if bits == 16 else "<i4")
+    if SUR_MAGIC[magic]:
+        try:
+            n_dir, = struct.unpack_from("<I", raw, start)
+            dirs = [struct.unpack_from("<II", raw, start + 4 + 8 * k) for k in range(n_dir)]
+            at, chunks = start + 4 + 8 * n_dir, []
+            for size_raw, size_zip in dirs:
+                chunk = zlib.decompress(raw[at:at + size_zip])
+                if len(chunk) != size_raw:
+                    raise ValueError
+                chunks.append(chunk)
+                at += size_zip
+            data = b"".join(chunks)
+        except (struct.error, zlib.error, ValueError):
+            raise MeasurementFileError(f"{p.name}: its compressed Digital Surf data ({zipped} bytes) cannot be "
+                                       "unpacked.", "Is the file complete? Save it again, uncompressed.") from None
+    else:
+        data = raw[start:]
+    if len(data) < npts * dtype.itemsize:
+        raise MeasurementFileError(
+            f"{p.name}: the header promises {nx} x {ny} points of {bits} bits after {start} bytes, but the file holds "
+            f"{len(data)} bytes of data.", "Is the file complete? Copy it again.")
+    counts = np.frombuffer(data, dtype=dtype, count=npts).reshape(ny, nx)
+    to_nm = _sur_unit_m(uz, "height", p.name) * 1e9
+    if not (np.isfinite(sz) and sz != 0):
+        raise MeasurementFileError(f"{p.name}: its z step is {sz!r}, so its points cannot be scaled to heights.",
+                                   "Save the studiable again from TalyMap / Mountains.")
+    z = counts.astype(np.float64) * (float(sz) * to_nm)
+    if nonmeasured == 1:
+        z[counts == zmin - 2] = np.nan
+    if inversion in (1, 2, 3):
+        z = -z
+        if inversion == 2:
+            z = z[:, ::-1]
+        elif inversion == 3:
+            z = z[::-1]
+    if dx_mm is not None:
+        dx, src = float(dx_mm), "argument"
+    else:
+        dx, src = float(sx) * _sur_unit_m(ux, "x step", p.name) * 1e3, "header"
+    kind = "profile" if ny == 1 else "map"
+    params: dict[str, Any] = {
+        "format": "digital-surf", "kind": kind, "units_assumed": [], "dx_source": src,
+        "studiable_type": "profile" if stype == SUR_PROFILE else "surface",
+        "acquisition": SUR_ACQUISITION.get(acq, f"code {acq}"), "object": _sur_text(raw, 20, 30),
+        "operator": _sur_text(raw, 50, 30), "units": {"x": ux, "y": uy, "z": uz}, "compressed": SUR_MAGIC[magic],
+        "z_offset_left_out": float(z_offset), "inversion": int(inversion),
+        "no_data_value": (zmin - 2) if nonmeasured == 1 else None,
+        "rows": "as stored: the file's first line is row 0 (Digital Surf does not say which edge it is)"}
+    if kind == "map":
+        params["dy_mm"] = float(sy) * _sur_unit_m(uy, "y step", p.name) * 1e3 if dx_mm is None else float(dx_mm)
+        out = z
+    else:
+        out = z[0]
+    params["n_nan"] = int(np.isnan(out).sum())
+    return out, dx, params

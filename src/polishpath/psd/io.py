@@ -1,5 +1,6 @@
 """Reading measured profiles and maps: plain text, CSV, Zygo ``.datx`` (and, through
-:mod:`polishpath.psd.instruments`, Zygo MetroPro ``.dat`` / ASCII and 4D Technology ``.h5``).
+:mod:`polishpath.psd.instruments`, Zygo MetroPro ``.dat`` / ASCII, 4D Technology ``.h5`` / ``.4D`` and Digital
+Surf ``.sur`` / ``.pro``, what Taylor Hobson's TalyMap / TalyProfile save).
 
 Everything is converted to nanometres (heights) and millimetres (lateral).
 Units come from the file when it says them (a ``# units`` comment, a column
@@ -23,7 +24,8 @@ from .. import progress
 from ..errors import MeasurementFileError, require
 from . import instruments
 
-#: formats that store the top row (the map's largest y) first: the error-map reader flips them
+#: formats that store the top row (the map's largest y) first: the error-map reader flips them (a Digital Surf
+#: ``.sur`` is not among them: its layout does not say which edge its first line is, so its rows stay as stored)
 TOP_ROW_FIRST = ("datx", "metropro-dat", "zygo-ascii", "4d-h5")
 
 _TO_MM = {"m": 1e3, "mm": 1.0, "um": 1e-3, "µm": 1e-3, "micron": 1e-3, "nm": 1e-6}
@@ -127,7 +129,14 @@ def read_measurement(file, *, lateral_unit: str | None = None, height_unit: str 
     for name, v in (("dx_mm", dx_mm), ("dy_mm", dy_mm)):
         _check_spacing(v, name, "the argument")
     suffix = path.suffix.lower()
-    if suffix == ".datx":
+    if path.is_file() and instruments.is_digital_surf(path):  # .sur / .pro (TalyMap, TalyProfile, Mountains)
+        z, dx, params = instruments.read_digital_surf(path, dx_mm=dx_mm)
+        kind = params.pop("kind")
+        m = Measurement(z, dx, params.pop("dy_mm", None), kind, str(path), params)
+        if height_unit is not None or lateral_unit is not None:
+            progress.warn(f"{path.name} states its own units (Digital Surf header): the unit options are not used "
+                          "for it.")
+    elif suffix == ".datx":
         m = _read_datx(path, dx_mm=dx_mm, lateral_unit=lateral_unit, height_unit=height_unit)
     elif (suffix == ".dat" and instruments.is_metropro_dat(path)) or (suffix == ".asc" and instruments.is_zygo_ascii(path)) \
             or suffix in (".h5", ".hdf5", ".4d"):
@@ -164,10 +173,11 @@ def _text_of(path: Path) -> str:
     if b"\0" in raw[:4096]:
         raise MeasurementFileError(
             f"{path.name} is a binary file in a format polishpath does not read (read: Zygo .datx, MetroPro .dat, "
-            "Zygo ASCII .asc, 4D .h5, and text or CSV profiles and maps; a Taylor Hobson binary .prf / .mod is "
-            "not read: its layout is not published).",
+            "Zygo ASCII .asc, 4D .h5 / .4D, Digital Surf .sur / .pro, and text or CSV profiles and maps; a Taylor "
+            "Hobson binary .prf / .mod is not read: its layout is not published).",
             "Export the measurement as text from the instrument's software (Form Talysurf: the profile as x z "
-            "text), or give a binary Zygo / 4D file its own extension (.dat, .datx, .h5).")
+            "text, or as a .sur from TalyProfile / TalyMap), or give a binary Zygo / 4D file its own extension "
+            "(.dat, .datx, .h5, .4D).")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:  # Windows software writes its code page: 'Z (µm)' with µ as the byte 0xB5
