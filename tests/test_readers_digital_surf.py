@@ -83,7 +83,7 @@ def test_a_profile_is_refused_as_an_error_map_naming_the_cause_and_the_fix(tmp_p
     assert "Give a 2D map" in err.value.hint and "[zernike]" in err.value.hint and "polishpath psd" in err.value.hint
 
 
-def test_the_run_command_refuses_a_profile_error_map_with_exit_2(tmp_path):
+def test_the_plan_command_refuses_a_profile_error_map_with_exit_2(tmp_path):
     from test_bad_input import cli, refused
 
     p = write_digital_surf(tmp_path / "trace.sur", _trace())
