@@ -332,3 +332,21 @@ def test_band_share_and_strongest_frequency():
     assert strongest_frequency(p) == pytest.approx(0.5, abs=p.df)
     assert band_variance_fraction(p, (1, 100)) == pytest.approx(1 / 101, rel=0.05)
     assert band_variance_fraction(p, (0.01, 100)) == pytest.approx(1.0)
+
+
+# --- a grid of heights: its dx says the lateral unit ------------------------------------------------------------
+
+
+def test_a_grid_whose_dx_has_a_unit_assumes_no_lateral_unit(tmp_path):
+    """A grid has no coordinates, so the lateral unit only scales dx: '# dx: 5 um' (or dx_mm) leaves nothing
+    lateral assumed and no warning for it; '# dx: 0.5' (no unit) is taken as mm and says so."""
+    rows = "\n".join(" ".join(f"{(i * j) % 7:.1f}" for j in range(12)) for i in range(10))
+    p = tmp_path / "g.txt"
+    p.write_text("# dx: 5 um\n# height_unit: nm\n" + rows + "\n")
+    m = read_measurement(p)
+    assert m.params["units_assumed"] == [] and m.dx_mm == pytest.approx(0.005)
+    p.write_text("# dx: 0.5\n# height_unit: nm\n" + rows + "\n")
+    assert read_measurement(p).params["units_assumed"] == ["lateral unit mm"]
+    p.write_text("# height_unit: nm\n" + rows + "\n")
+    m = read_measurement(p, dx_mm=0.25)
+    assert m.params["units_assumed"] == [] and m.dx_mm == 0.25

@@ -344,6 +344,10 @@ def _read_text(text, source, *, csv_like, lateral_unit, height_unit, dx_mm, dy_m
         raise MeasurementFileError(f"{source!r} is a grid of heights without coordinates.",
                                    "Pass dx_mm (pixel size in mm) or add a '# dx: 0.005 mm' comment line.")
     dyv = dy_mm if dy_mm is not None else (_value_with_unit(meta["dy"]) if "dy" in meta else dxv)
+    # a grid has no coordinates: the lateral unit only scales dx, so a dx given in mm or with its own unit
+    # ('# dx: 5 um') leaves nothing assumed
+    if "lateral unit mm" in assumed and (dx_mm is not None or re.search(r"[A-Za-zµμ]\s*$", meta.get("dx", ""))):
+        assumed.remove("lateral unit mm")
     grid = data * kz
     params["layout"] = "grid"
     params["n_nan"] = int(np.isnan(grid).sum())
