@@ -20,6 +20,7 @@ import math
 import time
 
 import numba
+from . import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from . import meshops

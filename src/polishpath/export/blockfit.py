@@ -53,6 +53,7 @@ from __future__ import annotations
 import math
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 __all__ = ["LINE", "CW", "CCW", "MAX_SWEEP", "MIN_ARC_MM", "MAX_RADIUS_MM", "RADIUS_MATCH_RES", "ON_PATH_MM",

@@ -30,6 +30,7 @@ import ctypes
 import ctypes.util
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 from llvmlite import ir
 from numba import types

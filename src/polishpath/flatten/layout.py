@@ -16,6 +16,7 @@ Two layouts:
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 import scipy.sparse as sp
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import time
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from .. import meshops

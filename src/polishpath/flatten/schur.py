@@ -13,6 +13,7 @@ that uses it is ``_mabf_pcg`` in :mod:`polishpath.flatten.mabf`.
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 import scipy.sparse as sp
 

@@ -8,6 +8,7 @@ from the linked list.
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from ._endgame import finish_component

@@ -13,6 +13,7 @@ so written here by hand.
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from ._steps import ST_APPEND, ST_JOIN, ST_KICK, ST_SPLICE, ST_SUBWALK, ST_TWOOPT, can_use, dir_between, link_path, mark_step

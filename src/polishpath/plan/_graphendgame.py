@@ -11,6 +11,7 @@ written here by hand.
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from ._endgame import _reverse_piece

@@ -44,6 +44,7 @@ never leaves the region. The walk (here) and its end-game (steps 4-5,
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from ._steps import (

@@ -28,6 +28,7 @@ generator seeded inside the kernel for the depth-first maze).
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 import shapely
 from scipy.sparse import coo_matrix

@@ -30,6 +30,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 #: Slots of the counters vector that the kernels fill (``stats``, (N_STATS,) int64).

@@ -13,6 +13,7 @@ and the structures passed in are in ``_steps``.
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from ._steps import (

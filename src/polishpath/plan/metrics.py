@@ -8,6 +8,7 @@ grid of cells about one step wide) with exact orientation predicates.
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 import shapely
 from scipy.spatial import cKDTree

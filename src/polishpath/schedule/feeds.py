@@ -40,6 +40,7 @@ import dataclasses
 from typing import Any
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from .. import progress

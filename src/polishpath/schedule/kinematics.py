@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from ..defaults import DEFAULT_SINGULAR_CONE_DEG

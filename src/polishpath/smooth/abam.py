@@ -55,6 +55,7 @@ from __future__ import annotations
 import math
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from .spans import (DIM, ST_CE_MAX, ST_COUNT, ST_DONE, ST_FALLBACKS, ST_G, ST_H, ST_NH, ST_PRED_MAX, ST_U,

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 from scipy.spatial import cKDTree
 

@@ -59,6 +59,7 @@ from __future__ import annotations
 import math
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 __all__ = ["DIM", "span_point", "span_derivs", "span_of", "chord_feed_limit", "step_feed", "chord_step", "chord_deviation", "nudge",

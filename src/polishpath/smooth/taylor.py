@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from .spans import (DIM, STATE_SIZE, ST_CE_MAX, ST_COUNT, ST_DONE, ST_FALLBACKS, ST_PRED_MAX, ST_RERUN_REGIONS,

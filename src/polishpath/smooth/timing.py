@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from .spans import DIM, chord_feed_limit, span_at, span_derivs, span_of

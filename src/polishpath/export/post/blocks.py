@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 
 import numba
+from ... import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 from ..blockfit import CCW, LINE, written_arc_lengths

@@ -32,6 +32,7 @@ triangles) because scipy has no Voronoi centroids and its Voronoi diagram of
 from __future__ import annotations
 
 import numba
+from ... import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 import shapely
 from scipy.spatial import cKDTree
