@@ -21,6 +21,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_MESHES = Path(os.environ.get("POLISHPATH_SHARED", REPO.parent / "shared")) / "data" / "meshes"
+SHARED_MEASUREMENTS = SHARED_MESHES.parent / "measurements"
 
 
 def shared_mesh_path(name: str) -> Path:
@@ -28,6 +29,19 @@ def shared_mesh_path(name: str) -> Path:
     p = SHARED_MESHES / name
     if not p.exists():
         pytest.skip(f"shared mesh {name} not found at {SHARED_MESHES} (../shared is absent in a user's clone)")
+    return p
+
+
+def shared_measurement_path(name: str) -> Path:
+    """Path of a real instrument file in ``../shared/data/measurements``, or skip the test with the reason.
+
+    Files brought from public repositories are data of the workplace's shared folder, not of this
+    repository (tests/data/measurements/SOURCES.md lists them, their sources and licences).
+    """
+    p = SHARED_MEASUREMENTS / name
+    if not p.exists():
+        pytest.skip(f"real instrument file {name} not found at {SHARED_MEASUREMENTS} (../shared is absent in a "
+                    "user's clone, or does not hold it)")
     return p
 
 

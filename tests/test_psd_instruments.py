@@ -17,9 +17,12 @@ from polishpath.dwell import read_error_map
 from polishpath.errors import MeasurementFileError
 from polishpath.psd import read_measurement
 
-DATA = Path(__file__).resolve().parent / "data" / "measurements"
-REAL_DATX = DATA / "zygo_gpi_monolithic.datx"
-REAL_DAT_XZ = DATA / "zygo_newview_metropro.dat.xz"  # a whole MetroPro file, xz-compressed, bytes unchanged
+from conftest import shared_measurement_path
+
+# real instrument files live in ../shared/data/measurements (tests/data/measurements/SOURCES.md); the tests
+# that read them skip where it does not hold them
+REAL_DATX = "zygo_test.datx"  # a Zygo GPI .datx (TWANG006/monolithic data/zygo_test.datx, MIT)
+REAL_DAT = "metropro-1.dat"  # a Zygo NewView MetroPro .dat (SurfaceTopography's metropro-1.dat, MIT)
 
 
 def _map(h=24, w=31, nan_corner=True):
@@ -36,12 +39,13 @@ def _map(h=24, w=31, nan_corner=True):
 
 def test_real_zygo_datx_reads_with_its_own_units_and_no_data():
     h5py = pytest.importorskip("h5py")
-    with h5py.File(REAL_DATX, "r") as f:
+    real = shared_measurement_path(REAL_DATX)
+    with h5py.File(real, "r") as f:
         ds = next(iter(f["Data"]["Surface"].values()))
         raw = ds[()]
         assert ds.attrs["Unit"][0] in (b"Fringes", "Fringes")
     no_data = raw >= np.finfo(np.float64).max  # counted here with h5py alone
-    m = read_measurement(REAL_DATX)
+    m = read_measurement(real)
     assert m.kind == "map" and m.z_nm.shape == (259, 33)
     assert m.dx_mm == pytest.approx(1.0, rel=1e-6)  # 0.001 m in the /Attributes group (the converter is in pixels)
     assert m.params["dx_source"].startswith("/Attributes")
@@ -54,18 +58,17 @@ def test_real_zygo_datx_reads_with_its_own_units_and_no_data():
 
 def test_real_zygo_datx_as_an_error_map_has_its_rows_flipped(recwarn):
     pytest.importorskip("h5py")
-    m = read_measurement(REAL_DATX)
-    e = read_error_map(REAL_DATX)
+    real = shared_measurement_path(REAL_DATX)
+    m = read_measurement(real)
+    e = read_error_map(real)
     np.testing.assert_array_equal(e.z_nm, m.z_nm[::-1])
     assert "flipped" in e.params["rows"]
     assert e.dx_mm == pytest.approx(1.0, rel=1e-6)
 
 
 def _real_dat(tmp_path) -> Path:
-    import lzma
-
     p = tmp_path / "metropro-1.dat"
-    p.write_bytes(lzma.decompress(REAL_DAT_XZ.read_bytes()))
+    p.write_bytes(shared_measurement_path(REAL_DAT).read_bytes())
     return p
 
 
