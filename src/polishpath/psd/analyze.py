@@ -131,8 +131,62 @@ def analyze_file(file, band: tuple[float, float] = PAPER_BAND_PER_MM, *, spacing
         "psd": p, "measurement_params": dict(m.params), "psd_params": dict(p.params),
     }
     if m.kind == "map":
-        out["psd_radial"] = radial_psd(m.z_nm, m.dx_mm, m.dy_mm, window=window, detrend=detrend)
+        radial, note = aperture_radial_psd(m.z_nm, m.dx_mm, m.dy_mm, window=window, detrend=detrend)
+        if radial is not None:
+            out["psd_radial"] = radial
+        out["psd_radial_note"] = note
     return out
+
+
+#: The share of missing pixels *inside* the measured aperture (holes, dropouts) up to which the radial PSD fills
+#: them; the frame outside a round aperture is not missing data and does not count.
+MAX_HOLE_FRACTION = 0.2
+
+
+def aperture_radial_psd(z_nm, dx_mm: float, dy_mm: float, *, window: str = "hann", detrend="tilt",
+                        max_hole_fraction: float = MAX_HOLE_FRACTION):
+    """The radial PSD of an interferometer map whose aperture does not fill its frame.
+
+    A round part measured full aperture leaves at least 21.5 % of its square frame without data (4D, Zygo GPI
+    files: 26 % on a real 4Sight map), which :func:`~polishpath.psd.core.radial_psd` would refuse as missing
+    pixels. Here the map is cropped to the box of its valid pixels, and only the holes *inside* the aperture (the
+    missing pixels that the valid ones enclose, ``scipy.ndimage.binary_fill_holes``) count against
+    ``max_hole_fraction``; the frame outside is filled by the same row interpolation and then tapered by the
+    window.
+
+    Parameters
+    ----------
+    z_nm : (Ny, Nx) array
+        Heights, nm; NaN where there is no data.
+    dx_mm, dy_mm : float
+        Pixel spacing, mm.
+
+    Returns
+    -------
+    (PSD or None, str)
+        The radial PSD, or None when the aperture's holes exceed the limit, and a sentence saying what was done.
+    """
+    from scipy.ndimage import binary_fill_holes
+
+    z = np.asarray(z_nm, dtype=np.float64)
+    valid = np.isfinite(z)
+    if not valid.any():
+        return None, "no valid pixel: no radial PSD"
+    rows, cols = np.flatnonzero(valid.any(axis=1)), np.flatnonzero(valid.any(axis=0))
+    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    z, valid = z[box], valid[box]
+    aperture = binary_fill_holes(valid)
+    holes = float((aperture & ~valid).sum() / aperture.sum())
+    outside = float((~aperture).sum() / aperture.size)
+    if holes > max_hole_fraction:
+        return None, (f"no radial PSD: {100 * holes:.1f} % of the aperture's pixels have no data, more than "
+                      f"{100 * max_hole_fraction:.0f} %; the row-profile PSD above does not need them filled")
+    if min(z.shape) < 8:
+        return None, f"no radial PSD: the valid pixels span only {z.shape[0]} x {z.shape[1]}"
+    radial = radial_psd(z, dx_mm, dy_mm, window=window, detrend=detrend, max_nan_fraction=1.0)
+    return radial, (f"radial PSD over the {z.shape[0]} x {z.shape[1]} pixels that hold the aperture: "
+                    f"{100 * holes:.1f} % holes inside it and {100 * outside:.1f} % of the box outside it filled "
+                    "along rows and tapered by the window")
 
 
 def band_variance_fraction(p: PSD, band: tuple[float, float]) -> float:
