@@ -44,7 +44,9 @@ DEFAULT_SPACING_MM = 0.5
 #: dwell-point set (--dwell-points): the paper's square grid. Issue 26's verdict (docs/simulation.md, "The walk
 #: without a lattice: the verdict") chose it: the lattice-free walks ('relaxed', 'blue-noise') print far lower
 #: lattice peaks (2-5 dB against the grid walk's 13-18 dB) but leave a residual band RMS up to 8 % above the grid
-#: walk's and 21-71 % above the rectangular path's, so the verdict's second condition is not met
+#: walk's and 21-71 % above the rectangular path's, so the verdict's second condition is not met. The excess sits at
+#: 1-1.5 1/mm (a walk turning at every point spreads its time density there); centring each point's time centroid
+#: narrows it to 11-14 % on a flat square, nothing tried closes it ("Where the walks' band RMS comes from")
 DEFAULT_DWELL_POINTS = "grid"
 #: the job refuses to plan more dwell points than this (memory and time: about 1 KB and 50 us each)
 DEFAULT_MAX_POINTS = 5_000_000

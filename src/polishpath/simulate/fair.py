@@ -9,7 +9,8 @@ minus removal) on its own, as the literature that simulates path ripple does:
   valid pixels;
 * :func:`band_rms_nm` is the RMS of the residual's content with spatial
   frequency ``f_lo <= |f| <= f_hi`` (the paper's band 10^3-10^5 1/m), from the
-  2D PSD;
+  2D PSD; :func:`band_powers_nm2` splits its square over rings of frequency
+  (where in the band a residual's power sits);
 * :func:`lattice_peak_db` is the largest PSD peak at the path's own
   frequencies (:func:`lattice_frequencies`) over the local background, in dB,
   from the profile PSDs of the rows and of the columns;
@@ -38,7 +39,7 @@ from ..errors import ParameterError
 from ..psd.core import PAPER_BAND_PER_MM
 from .lattice import _BLOCK_ROWS, _check_freqs, _lattice_db, lattice_frequencies, nominal_frequencies, path_frequencies
 
-__all__ = ["FairMetrics", "PAPER_BAND_PER_MM", "band_rms_nm", "detrend_residual", "fair_metrics",
+__all__ = ["FairMetrics", "PAPER_BAND_PER_MM", "band_powers_nm2", "band_rms_nm", "detrend_residual", "fair_metrics",
            "lattice_frequencies", "lattice_peak_db", "nominal_frequencies", "path_frequencies", "pvn",
            "ripple_amplitude", "taper_width_mm", "time_density_peak_db"]
 
@@ -284,6 +285,59 @@ def _band_rms(z: np.ndarray, w: np.ndarray, dx_mm: float, lo: float, hi: float) 
         blk = Z[r0:r1]
         power += float(np.sum(((blk.real ** 2 + blk.imag ** 2) * mult[None, :])[inband]))
     return float(np.sqrt(power / (ny * nx * np.sum(w * w))))
+
+
+def band_powers_nm2(map_nm, dx_mm: float, edges, mask=None) -> np.ndarray:
+    """The residual's power in rings of spatial frequency, nm^2: where in the band it sits.
+
+    The same window and normalisation as :func:`band_rms_nm`: ring i holds the
+    content with ``edges[i] <= |f| < edges[i + 1]`` (the last ring closed at
+    ``edges[-1]``), so over rings that span a band their sum is that band's
+    ``band_rms_nm ** 2`` (tested). Used to find which frequencies decide a
+    path's band RMS (docs/simulation.md, "Where the walks' band RMS comes from").
+
+    Parameters
+    ----------
+    map_nm : (Ny, Nx) array_like
+        Heights, nm (normally :func:`detrend_residual`'s output).
+    dx_mm : float
+        Pixel pitch, mm.
+    edges : (K + 1,) array_like
+        Ring edges, 1/mm, increasing, ``edges[0] >= 0``.
+    mask : (Ny, Nx) bool, optional
+        True where the map is evaluated.
+
+    Returns
+    -------
+    (K,) float64
+        nm^2 per ring.
+    """
+    import scipy.fft as sfft
+
+    e = np.asarray(edges, dtype=np.float64).ravel()
+    if e.size < 2 or not np.all(np.isfinite(e)) or e[0] < 0 or np.any(np.diff(e) <= 0):
+        raise ParameterError(f"edges must be at least two increasing frequencies >= 0 (1/mm), got {edges!r}.",
+                             "Give ring edges such as (1, 1.5, 2, 3, 100).")
+    z, w, _, _ = _prepared(map_nm, dx_mm, (float(e[0]), float(e[-1])), mask)
+    ny, nx = z.shape
+    Z = sfft.rfft2(z * w, workers=2)
+    fx = sfft.rfftfreq(nx, d=dx_mm)
+    fy = sfft.fftfreq(ny, d=dx_mm)
+    mult = np.full(len(fx), 2.0)  # the half spectrum stands for both halves (see _band_rms)
+    mult[0] = 1.0
+    if nx % 2 == 0:
+        mult[-1] = 1.0
+    out = np.zeros(e.size - 1)
+    for r0 in range(0, ny, _BLOCK_ROWS):
+        r1 = min(ny, r0 + _BLOCK_ROWS)
+        f = np.sqrt(fx[None, :] ** 2 + fy[r0:r1, None] ** 2).ravel()
+        blk = Z[r0:r1]
+        pw = ((blk.real ** 2 + blk.imag ** 2) * mult[None, :]).ravel()
+        ring = np.searchsorted(e, f, side="right") - 1
+        ring[f == e[-1]] = e.size - 2  # the last ring is closed
+        ok = (ring >= 0) & (ring < e.size - 1)
+        out += np.bincount(ring[ok], weights=pw[ok], minlength=e.size - 1)
+    return out / (ny * nx * np.sum(w * w))
 
 
 # --- lattice peaks ------------------------------------------------------------------------
