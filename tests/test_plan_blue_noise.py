@@ -19,7 +19,7 @@ from polishpath.flatten import boundary_region, flatten
 from polishpath.plan import count_crossings, dwell_grid, plan
 from polishpath.plan.bluewalk import graph_walk_order
 from polishpath.plan.points import DWELL_POINT_SETS, BlueNoisePoints, blue_noise_points
-from polishpath.plan.points.blue_noise import EDGE_FACTOR
+from polishpath.plan.points.blue_noise import EDGE_FACTOR, LEAF_EDGE_FACTOR
 from polishpath.types import Region
 
 H = 1.0
@@ -131,7 +131,7 @@ def test_steps_are_short_and_turn_in_every_direction(big_path):
         steps.append(np.hypot(*d.T))
         ang.append(np.arctan2(d[:, 1], d[:, 0]))
     steps, ang = np.concatenate(steps), np.concatenate(ang)
-    assert steps.max() <= EDGE_FACTOR * H * (1 + 1e-12)
+    assert steps.max() <= LEAF_EDGE_FACTOR * H * (1 + 1e-12) and LEAF_EDGE_FACTOR < 2.0
     assert np.median(steps) < 1.2 * H
     sectors = np.bincount(((ang + np.pi) // (np.pi / 8)).astype(int) % 16, minlength=16) / len(ang)
     assert sectors.max() <= 1.5 / 16 and sectors.min() >= 0.5 / 16
@@ -156,7 +156,7 @@ def test_pieces_follow_the_grid_walks_rules():
     d = np.hypot(*np.diff(path.uv, axis=0).T)
     inner = np.ones(len(d), dtype=bool)
     inner[path.pieces[1:-1] - 1] = False
-    assert d[inner].max() <= EDGE_FACTOR * H
+    assert d[inner].max() <= LEAF_EDGE_FACTOR * H
     assert path.pieces[0] == 0 and path.pieces[-1] == path.n_points
 
 
@@ -233,7 +233,7 @@ def test_a_curved_part_keeps_the_spacing_on_the_part(hemisphere_flat):
     d3 = np.linalg.norm(np.diff(sp.xyz, axis=0), axis=1)
     inner = np.ones(len(d3), dtype=bool)
     inner[planar.pieces[1:-1] - 1] = False
-    assert d3[inner].max() <= EDGE_FACTOR * s * (1 + 1e-6)
+    assert d3[inner].max() <= LEAF_EDGE_FACTOR * s * (1 + 1e-6)
     assert np.array_equal(np.sort(planar.ij[:, 0]), np.arange(planar.n_points))
     assert count_crossings(planar.uv, planar.pieces) == 0
     # the dwell weight is each point's planar cell times the local area ratio: divided by the cell, it is the

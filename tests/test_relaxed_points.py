@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 from polishpath.errors import ParameterError
 from polishpath.plan import count_crossings, dwell_grid, plan
 from polishpath.plan.points import DWELL_POINT_SETS, blue_noise_points, relaxed_points
-from polishpath.plan.points.blue_noise import EDGE_FACTOR, neighbour_graph
+from polishpath.plan.points.blue_noise import LEAF_EDGE_FACTOR, neighbour_graph
 from polishpath.plan.points.relaxed import MIN_DISTANCE_FACTOR, voronoi_centroids
 from polishpath.types import Region
 
@@ -72,7 +72,7 @@ def test_steps_are_short_and_spread_over_every_direction(big_path):
     uv, pieces = big_path.uv, big_path.pieces
     d = np.concatenate([np.diff(uv[a:b], axis=0) for a, b in zip(pieces[:-1], pieces[1:])])
     steps, ang = np.hypot(*d.T), np.arctan2(d[:, 1], d[:, 0])
-    assert steps.max() <= min(EDGE_FACTOR, 2.0) * H * (1 + 1e-12)
+    assert steps.max() <= LEAF_EDGE_FACTOR * H * (1 + 1e-12) and LEAF_EDGE_FACTOR < 2.0
     sectors = np.bincount(((ang + np.pi) // (np.pi / 8)).astype(int) % 16, minlength=16) / len(ang)
     assert sectors.max() <= 1.5 / 16 and sectors.min() >= 0.5 / 16
     assert len(pieces) - 1 == 1  # a disc is one piece

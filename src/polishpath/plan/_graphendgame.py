@@ -15,9 +15,8 @@ from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels c
 import numpy as np
 
 from ._endgame import _reverse_piece
-from ._graphwalk import _adjacent, _has_free, _has_neighbour, graph_walk
+from ._graphwalk import N_GRAPH_STATS, _adjacent, _has_free, _has_neighbour, graph_walk
 from ._steps import (
-    N_STATS,
     ST_APPEND,
     ST_JOIN,
     ST_KICK,
@@ -356,11 +355,11 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
 
     Returns
     -------
-    stats : (N_STATS,) int64
-        Counters (the ``ST_*`` slots of ``_steps``).
+    stats : (N_GRAPH_STATS,) int64
+        Counters (the ``ST_*`` slots of ``_steps``, then ``_graphwalk.ST_FLIP``).
     """
     np.random.seed(seed)
-    stats = np.zeros(N_STATS, dtype=np.int64)
+    stats = np.zeros(N_GRAPH_STATS, dtype=np.int64)
     n = nodes.shape[0]
     max_kicks = 1000 + n // 20
     k = graph_walk(start, walk_id, n, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp)

@@ -10,16 +10,20 @@ graph's, not the walk's.
 
 1. Walk: from the start, step to a random unvisited neighbour (but to one that
    would be left with no other unvisited neighbour, when there is one: else it
-   is stranded inside the path).
+   is stranded inside the path). A leaf of the graph (a point of one neighbour:
+   a path can only end there) is stepped into only to become the path's first
+   point (the path is reversed at once, the walk goes on from its other end) or
+   its last; otherwise it waits, and the steering below looks past it.
 2. Dead end: the paper's turnaround (a Posa rotation): among the path points
    next to the head, take the most recent one whose successor can move on;
    break after it, reverse the tail, join it to the head. The path is an
    implicit treap (``_treap``), so a reversal costs O(log n).
-3. No freeing turnaround: rotate toward the nearest unvisited point (a cell
+3. No freeing turnaround: when the path's other end can move on, reverse the
+   whole path (O(1): the root's flag) and walk on from there; else rotate toward the nearest unvisited point (a cell
    search of radius ``steer``; 3 times in 4, else at random), at most
    ``max_blind`` times in a row; then the paper's step 7 (give back the last
    ``backtrack`` points, within a budget), then an escape (steered rotations
-   toward a point up to 8 x ``steer`` cells away, a bounded number of times);
+   toward a point up to 8 x ``steer`` cells away, up to 16 + n / 100 times);
    then the walk ends.
 4. End-game: every point still unvisited is spliced between two consecutive
    path points that are both its neighbours, or after / before a piece end
@@ -57,7 +61,13 @@ from ._steps import (
     ST_STUCK,
     ST_TENTHS,
 )
+from ._steps import N_STATS as _N_GRID_STATS
 from ._treap import TV, tgive_back, tinorder, tmerge, tnew, trank, tsplit, tsucc
+
+#: The graph walk's own counter after the grid walk's (``_steps``) slots: whole-path reversals.
+ST_FLIP = _N_GRID_STATS
+#: Length of the graph walk's counters vector.
+N_GRAPH_STATS = _N_GRID_STATS + 1
 
 
 @numba.njit(cache=True)
@@ -95,44 +105,48 @@ def _adjacent(p, q, indptr, indices):
 
 
 @numba.njit(cache=True)
-def nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, rmax):
+def nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, rmax, indptr):
     """Nearest unvisited point of component ``comp`` in the cell rings around point ``h`` (up to ``rmax`` rings), or -1.
 
     ``cells`` / ``cstart`` list the points of each cell of side ``cw`` mm (cell ``(cx, cy)`` is
     ``cy * W + cx``, corner ``(x0, y0)``); the first ring that holds one decides (then the nearer of
-    that ring and the next, by distance).
+    that ring and the next, by distance). A leaf of the graph (one neighbour, ``indptr``: a path can only
+    end there) is the answer only when no other unvisited point is within reach.
     """
     hx = int((xy[h, 0] - x0) / cw)
     hy = int((xy[h, 1] - y0) / cw)
-    best = -1
-    bestd = 1e300
-    found_ring = -1
-    for r in range(0, rmax + 1):
-        if found_ring >= 0 and r > found_ring + 1:
-            break
-        for cy in range(hy - r, hy + r + 1):
-            if cy < 0 or cy >= H:
-                continue
-            step = 1 if (cy == hy - r or cy == hy + r) else 2 * r
-            if step == 0:
-                step = 1
-            cx = hx - r
-            while cx <= hx + r:
-                if 0 <= cx < W:
-                    c = cy * W + cx
-                    for t in range(cstart[c], cstart[c + 1]):
-                        q = cells[t]
-                        if vis[q] == 0 and lab[q] == comp:
-                            dx = xy[q, 0] - xy[h, 0]
-                            dy = xy[q, 1] - xy[h, 1]
-                            d = dx * dx + dy * dy
-                            if d < bestd:
-                                bestd = d
-                                best = q
-                                if found_ring < 0:
-                                    found_ring = r
-                cx += step
-    return best
+    for leaves in range(2):  # leaves skipped, then (none else within reach) taken
+        best = -1
+        bestd = 1e300
+        found_ring = -1
+        for r in range(0, rmax + 1):
+            if found_ring >= 0 and r > found_ring + 1:
+                break
+            for cy in range(hy - r, hy + r + 1):
+                if cy < 0 or cy >= H:
+                    continue
+                step = 1 if (cy == hy - r or cy == hy + r) else 2 * r
+                if step == 0:
+                    step = 1
+                cx = hx - r
+                while cx <= hx + r:
+                    if 0 <= cx < W:
+                        c = cy * W + cx
+                        for t in range(cstart[c], cstart[c + 1]):
+                            q = cells[t]
+                            if vis[q] == 0 and lab[q] == comp and (leaves == 1 or indptr[q + 1] - indptr[q] != 1):
+                                dx = xy[q, 0] - xy[h, 0]
+                                dy = xy[q, 1] - xy[h, 1]
+                                d = dx * dx + dy * dy
+                                if d < bestd:
+                                    bestd = d
+                                    best = q
+                                    if found_ring < 0:
+                                        found_ring = r
+                    cx += step
+        if best >= 0:
+            return best
+    return -1
 
 
 @numba.njit(cache=True)
@@ -160,7 +174,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
         Receives the walk's nodes in order.
     max_blind : int
         Rotations in a row that do not free the head before the walk ends.
-    stats : (N_STATS,) int64
+    stats : (N_GRAPH_STATS,) int64
         Counters, incremented.
     sp : tuple
         ``(xy, lab, comp, cells, cstart, x0, y0, cw, W, H, steer)``: the points (n, 2) mm, their component
@@ -178,10 +192,11 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
     radius = steer
     deleted = 0
     escapes = 0
-    max_escapes = 16 + n_comp // 10000
+    max_escapes = 16 + n_comp // 100
     tnew(start, T)
     root = start
     head = start
+    first = start  # the path's other end (a turnaround or a give-back keeps it; a reversal swaps the two)
     wid[start] = walk_id
     vis[start] = 1
     k = np.int64(1)  # int64 from the start: a literal 1 compiled tgive_back a second time
@@ -196,11 +211,34 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
     while True:
         h = head
         nav = 0
+        leaf = -1
         for e in range(indptr[h], indptr[h + 1]):
             q = indices[e]
-            if vis[q] == 0 and nav < cap:
-                cand[nav] = q
-                nav += 1
+            if vis[q] == 0:
+                if indptr[q + 1] - indptr[q] == 1:
+                    leaf = q  # a point with no other neighbour: a path can only end there
+                elif nav < cap:
+                    cand[nav] = q
+                    nav += 1
+        if leaf >= 0 and (k + 1 == n_comp or (first != h and indptr[first + 1] - indptr[first] != 1)):
+            # step into the leaf and make it the path's first point (reverse the path): the walk goes on from
+            # the other end (turning around there if it cannot move on); or the leaf is the last point. When
+            # the first point is a leaf already, the leaf waits: a head that stepped in would be stuck for good
+            # (no turnaround from a point of one neighbour); the walk comes back for it at the end
+            tnew(leaf, T)
+            root = tmerge(root, leaf, T, stack)
+            wid[leaf] = walk_id
+            vis[leaf] = 1
+            k += 1
+            stats[ST_STEPS] += 1
+            T[root, TV] ^= 1
+            head, first = first, leaf
+            stats[ST_FLIP] += 1
+            blind = 0
+            tgt = -1
+            blind_limit = max_blind
+            radius = steer
+            continue
         if nav > 0:
             # a neighbour that would be left with no unvisited neighbour is taken now (else it is stranded:
             # at the rim, where points have few neighbours, the end-game cannot always place it)
@@ -251,13 +289,25 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
                     best = cand_t[i]
                     r = i
             t, sq = cand_t[r], cand_s[r]
+        elif k > 1 and _has_free(first, indptr, indices, vis):
+            # the other end of the path can move on: reverse the whole path (O(1): the root's flag), so that
+            # it is the head; the walk goes on there instead of wandering blind or giving points back (a head
+            # at a rim point of one neighbour has no turnaround at all)
+            T[root, TV] ^= 1
+            head, first = first, head
+            blind = 0
+            tgt = -1
+            blind_limit = max_blind
+            radius = steer
+            stats[ST_FLIP] += 1
+            continue
         elif nany > 0 and blind < blind_limit:
             # no turnaround frees the head: rotate toward the nearest unvisited point (3 times in 4,
             # else at random) and look again
             blind += 1
             stats[ST_BLIND] += 1
             if tgt < 0 or vis[tgt] == 1:
-                tgt = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, radius)
+                tgt = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, radius, indptr)
             if tgt >= 0 and np.random.random() < 0.75:
                 bestd = 1e300
                 for i in range(nany):
@@ -274,7 +324,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
             # the paper's step 7: give back the last points and walk on (budgeted)
             if backtrack > 0 and deleted + backtrack <= budget and k > backtrack + 1:
                 root, _ = tgive_back(root, k, backtrack, T, stack, P, vis, wid)
-                head = P[0]
+                head = P[0]  # (the path's first point stays: k > backtrack + 1)
                 k -= backtrack
                 deleted += backtrack
                 stats[ST_DEL] += backtrack
@@ -282,7 +332,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
             # escape: steered rotations toward an unvisited point up to 8 x steer cells away, a bounded
             # number of times
             if escapes < max_escapes and blind_limit == max_blind:
-                t2 = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, 8 * steer)
+                t2 = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, 8 * steer, indptr)
                 if t2 >= 0:
                     escapes += 1
                     stats[ST_ESCAPE] += 1

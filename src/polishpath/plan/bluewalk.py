@@ -3,7 +3,8 @@
 :func:`graph_walk_order` orders the points of a
 :class:`~polishpath.plan.points.BlueNoisePoints` set along a random path of
 its neighbour graph (``_graphwalk``): every point once, short steps (graph
-edges of at most ``EDGE_FACTOR x h``), random turns, never crossing itself
+edges of at most ``EDGE_FACTOR x h``, ``LEAF_EDGE_FACTOR x h`` at a rim point
+that would otherwise have one neighbour), random turns, never crossing itself
 (the edges of a triangulation do not cross), never leaving the region (the
 kept edges are inside it). Graph components that are not connected at all (a
 neck narrower than about 1.7 spacings) are planned one after the other as
@@ -21,6 +22,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import ParameterError
 from ._graphendgame import plan_graph_component
 from ._steps import N_STATS
+from ._graphwalk import N_GRAPH_STATS, ST_FLIP
 from ._component import collect_pieces
 from .checks import check_count, check_index, check_number, check_seed
 from .points.blue_noise import BlueNoisePoints, cell_lists
@@ -119,7 +121,7 @@ def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0,
     cw = points.spacing
     lab64 = lab.astype(np.int64)
 
-    tot = np.zeros(N_STATS, dtype=np.int64)
+    tot = np.zeros(N_GRAPH_STATS, dtype=np.int64)
     orders, piece_offs = [], [np.zeros(1, dtype=np.int64)]
     n_done = 0
     prev_end = points.uv[start]
@@ -139,5 +141,6 @@ def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0,
         prev_end = points.uv[ordc[-1]]
     order = np.concatenate(orders).astype(np.int64)
     pieces = np.concatenate(piece_offs)
-    stats = walk_stats(tot, int(ncomp), len(pieces) - 1, n, time.perf_counter() - t0)
+    stats = walk_stats(tot[:N_STATS], int(ncomp), len(pieces) - 1, n, time.perf_counter() - t0)
+    stats["reversals"] = int(tot[ST_FLIP])
     return order, pieces, stats

@@ -17,7 +17,8 @@ construction and the walk read them about 1.5x faster). Written by hand (numba) 
 10^6-10^7 dwell points; the loop is the textbook one.
 
 Neighbour graph (:func:`neighbour_graph`): the edges of the points' Delaunay
-triangulation that are at most ``EDGE_FACTOR x h`` long and stay inside the
+triangulation that are at most ``EDGE_FACTOR x h`` long (``LEAF_EDGE_FACTOR x h``
+at a point that would otherwise have one neighbour) and stay inside the
 region (exact shapely test for the edges near the boundary). Each edge is
 decided locally (``_local_delaunay``: an edge is kept when a circle of radius at
 most ``EMPTY_CIRCLE_FACTOR x h`` through its ends holds no other point, a
@@ -57,6 +58,10 @@ ACTIVE_WINDOW = 64
 #: circle is about r = 0.90 h, so a Delaunay edge between neighbours is at most about 1.8 h; longer
 #: ones span a gap or a notch of the boundary).
 EDGE_FACTOR = 1.7
+#: Longest edge of the neighbour graph at a point that the EDGE_FACTOR rule leaves with one neighbour (a leaf:
+#: a path can only end there, so two of them at the rim cost a tool lift): its inside Delaunay edges up to
+#: this multiple of h join the graph too (still under the issue's 2 h). The longest step of the walk.
+LEAF_EDGE_FACTOR = 1.9
 #: The sampler's largest set (points); beyond it the region is refused with a message.
 MAX_POINTS = 60_000_000
 
@@ -427,7 +432,8 @@ EMPTY_CIRCLE_FACTOR = 1.1
 def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The kept Delaunay edges of ``uv`` (n, 2) mm inside ``poly``, and the kept triangles.
 
-    An edge is kept when it is at most ``EDGE_FACTOR x spacing`` long, has an empty circle of radius at most
+    An edge is kept when it is at most ``EDGE_FACTOR x spacing`` long (``LEAF_EDGE_FACTOR x spacing`` at a
+    point that would otherwise have one neighbour), has an empty circle of radius at most
     ``EMPTY_CIRCLE_FACTOR x spacing`` (every Delaunay edge of a near-maximal Poisson-disk set has) and its
     segment stays inside ``poly``.
 
@@ -460,7 +466,14 @@ def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, n
     # the triangles whose three edges are inside the region; the walk's graph: the inside edges up to lmax
     ip_all, ix_all = _csr(ea, eb, keep, n)
     tri_keep = _triangles_inside(tris, ip_all, ix_all)
-    short = keep & ((uv[ea, 0] - uv[eb, 0]) ** 2 + (uv[ea, 1] - uv[eb, 1]) ** 2 <= lmax * lmax)
+    d2 = (uv[ea, 0] - uv[eb, 0]) ** 2 + (uv[ea, 1] - uv[eb, 1]) ** 2
+    short = keep & (d2 <= lmax * lmax)
+    # a point left with one neighbour (at the rim, or a sharp corner) gets its inside Delaunay edges up to
+    # LEAF_EDGE_FACTOR x spacing: a leaf can only end a path
+    deg = np.bincount(ea[short], minlength=n) + np.bincount(eb[short], minlength=n)
+    low = deg <= 1
+    if low.any():
+        short |= keep & (d2 <= (LEAF_EDGE_FACTOR * spacing) ** 2) & (low[ea] | low[eb])
     indptr, indices = _csr(ea, eb, short, n)
     return indptr, indices, tris[tri_keep]
 
