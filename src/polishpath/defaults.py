@@ -71,8 +71,10 @@ FIGURING_TURN_HEADROOM = 0.5
 #: figuring: the smoothing stage runs a dwell region again while its time is off by more than this share ...
 FIGURING_REGION_TOL = 0.004
 #: ... up to this many runs (docs/machine-output.md section 3; docs/figuring.md "Delivered by the path": on the
-#: figuring example 8 runs leave a region 4.3 % off, 12 runs 3.5 %)
-FIGURING_SCHEDULE_PASSES = 12
+#: figuring example 8 runs leave a region 4.3 % off, 12 runs 3.5 % on the machine that measured it but 6.1 % on
+#: an AMD EPYC, where a turn's steps fall otherwise; 20 runs 3.8 % there. The first 12 runs are those of 12 and
+#: the nearest run is kept, so more runs never leave a region further off)
+FIGURING_SCHEDULE_PASSES = 20
 
 #: local worker processes of a comparison's independent cases (pattern x seed): None = every core
 #: this process may use (polishpath.simulate.cases.available_cores); 1 = one after another in process
