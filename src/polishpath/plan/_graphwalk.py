@@ -115,38 +115,41 @@ def nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H,
     """
     hx = int((xy[h, 0] - x0) / cw)
     hy = int((xy[h, 1] - y0) / cw)
-    for leaves in range(2):  # leaves skipped, then (none else within reach) taken
-        best = -1
-        bestd = 1e300
-        found_ring = -1
-        for r in range(0, rmax + 1):
-            if found_ring >= 0 and r > found_ring + 1:
-                break
-            for cy in range(hy - r, hy + r + 1):
-                if cy < 0 or cy >= H:
-                    continue
-                step = 1 if (cy == hy - r or cy == hy + r) else 2 * r
-                if step == 0:
-                    step = 1
-                cx = hx - r
-                while cx <= hx + r:
-                    if 0 <= cx < W:
-                        c = cy * W + cx
-                        for t in range(cstart[c], cstart[c + 1]):
-                            q = cells[t]
-                            if vis[q] == 0 and lab[q] == comp and (leaves == 1 or indptr[q + 1] - indptr[q] != 1):
-                                dx = xy[q, 0] - xy[h, 0]
-                                dy = xy[q, 1] - xy[h, 1]
-                                d = dx * dx + dy * dy
-                                if d < bestd:
-                                    bestd = d
-                                    best = q
-                                    if found_ring < 0:
-                                        found_ring = r
-                    cx += step
-        if best >= 0:
-            return best
-    return -1
+    best = -1
+    bestd = 1e300
+    leaf = -1  # the nearest leaf, the answer when no other point is within reach
+    leafd = 1e300
+    found_ring = -1
+    for r in range(0, rmax + 1):
+        if found_ring >= 0 and r > found_ring + 1:
+            break
+        for cy in range(hy - r, hy + r + 1):
+            if cy < 0 or cy >= H:
+                continue
+            step = 1 if (cy == hy - r or cy == hy + r) else 2 * r
+            if step == 0:
+                step = 1
+            cx = hx - r
+            while cx <= hx + r:
+                if 0 <= cx < W:
+                    c = cy * W + cx
+                    for t in range(cstart[c], cstart[c + 1]):
+                        q = cells[t]
+                        if vis[q] == 0 and lab[q] == comp:
+                            dx = xy[q, 0] - xy[h, 0]
+                            dy = xy[q, 1] - xy[h, 1]
+                            d = dx * dx + dy * dy
+                            if indptr[q + 1] - indptr[q] == 1:
+                                if d < leafd:
+                                    leafd = d
+                                    leaf = q
+                            elif d < bestd:
+                                bestd = d
+                                best = q
+                                if found_ring < 0:
+                                    found_ring = r
+                cx += step
+    return best if best >= 0 else leaf
 
 
 @numba.njit(cache=True)

@@ -416,10 +416,24 @@ def cell_lists(uv: np.ndarray, cw: float) -> tuple[np.ndarray, np.ndarray, float
     cx = ((uv[:, 0] - x0) / cw).astype(np.int64)
     cy = ((uv[:, 1] - y0) / cw).astype(np.int64)
     W, H = int(cx.max()) + 1, int(cy.max()) + 1
-    cid = cy * W + cx
-    cells = np.argsort(cid, kind="stable").astype(np.int64)
-    cstart = np.searchsorted(cid[cells], np.arange(W * H + 1)).astype(np.int64)
+    cells, cstart = _counting_sort(cy * W + cx, W * H)
     return cells, cstart, float(x0), float(y0), W, H
+
+
+@numba.njit(cache=True)
+def _counting_sort(cid, ncell):  # pragma: no cover - numba
+    # the stable order of the points by cell number (np.argsort(cid, kind="stable")) and each cell's start: O(n)
+    cstart = np.zeros(ncell + 1, np.int64)
+    for i in range(cid.shape[0]):
+        cstart[cid[i] + 1] += 1
+    for c in range(ncell):
+        cstart[c + 1] += cstart[c]
+    fill = cstart[:-1].copy()
+    cells = np.empty(cid.shape[0], np.int64)
+    for i in range(cid.shape[0]):
+        cells[fill[cid[i]]] = i
+        fill[cid[i]] += 1
+    return cells, cstart
 
 
 #: Longest Delaunay edge looked for (the triangles around a gap, for the cell areas), as a multiple of the
@@ -466,16 +480,32 @@ def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, n
     # the triangles whose three edges are inside the region; the walk's graph: the inside edges up to lmax
     ip_all, ix_all = _csr(ea, eb, keep, n)
     tri_keep = _triangles_inside(tris, ip_all, ix_all)
-    d2 = (uv[ea, 0] - uv[eb, 0]) ** 2 + (uv[ea, 1] - uv[eb, 1]) ** 2
-    short = keep & (d2 <= lmax * lmax)
     # a point left with one neighbour (at the rim, or a sharp corner) gets its inside Delaunay edges up to
     # LEAF_EDGE_FACTOR x spacing: a leaf can only end a path
-    deg = np.bincount(ea[short], minlength=n) + np.bincount(eb[short], minlength=n)
-    low = deg <= 1
-    if low.any():
-        short |= keep & (d2 <= (LEAF_EDGE_FACTOR * spacing) ** 2) & (low[ea] | low[eb])
+    short = _walk_edges(uv, ea, eb, keep, lmax, LEAF_EDGE_FACTOR * spacing)
     indptr, indices = _csr(ea, eb, short, n)
     return indptr, indices, tris[tri_keep]
+
+
+@numba.njit(cache=True)
+def _walk_edges(uv, ea, eb, keep, lmax, lleaf):  # pragma: no cover - numba
+    # (E,) bool: the kept edges up to lmax, and up to lleaf at a point those leave with at most one neighbour
+    n = uv.shape[0]
+    d2 = np.empty(ea.shape[0])
+    short = np.zeros(ea.shape[0], np.bool_)
+    deg = np.zeros(n, np.int64)
+    for i in range(ea.shape[0]):
+        dx = uv[ea[i], 0] - uv[eb[i], 0]
+        dy = uv[ea[i], 1] - uv[eb[i], 1]
+        d2[i] = dx * dx + dy * dy
+        if keep[i] and d2[i] <= lmax * lmax:
+            short[i] = True
+            deg[ea[i]] += 1
+            deg[eb[i]] += 1
+    for i in range(ea.shape[0]):
+        if keep[i] and not short[i] and d2[i] <= lleaf * lleaf and (deg[ea[i]] <= 1 or deg[eb[i]] <= 1):
+            short[i] = True
+    return short
 
 
 @numba.njit(cache=True)
