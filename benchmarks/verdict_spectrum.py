@@ -23,10 +23,14 @@ spiral and rectangular paths, per seed:
   has its centroid on the planned point: ``q <- q - (centroid(q) - p)``, three
   times. A treatment of every path alike (a path that turns at every point has
   its time centroid about h/8 inside each turn; a straight pass has it on the
-  point), measured here, not a planner option.
+  point), measured here, not a planner option;
+* ``--fit``: the same paths after :func:`polishpath.simulate.densityfit.fit_time_density`
+  (centring, then the machine time density flattened as the tool passes it
+  into 0.95-2 1/mm, within 0.3 h of the planned points): what
+  ``compare_planned(..., treatment="density-fit")`` gives every path.
 
     PYTHONPATH=src python benchmarks/verdict_spectrum.py [--size 22] [--patch 16] [--dx 0.01]
-        [--seeds 0,1] [--centre] [--json OUT]
+        [--seeds 0,1] [--centre] [--fit] [--json OUT]
 
 Prints one line per (path, seed, variant): band RMS (nm), lattice peak (dB),
 the ring powers (nm^2) and the time density's ring powers, and the CPU time.
@@ -109,6 +113,7 @@ def main(argv=None) -> None:
     ap.add_argument("--dx", type=float, default=0.01, help="pixel, mm")
     ap.add_argument("--seeds", default="0", help="comma-separated seeds")
     ap.add_argument("--centre", action="store_true", help="also each path with its time centroids centred")
+    ap.add_argument("--fit", action="store_true", help="also each path after the density fit")
     ap.add_argument("--only", default=None, help="comma-separated path names (default all)")
     ap.add_argument("--json", default=None, help="write the figures here")
     a = ap.parse_args(argv)
@@ -131,6 +136,10 @@ def main(argv=None) -> None:
             variants = {"as planned": xy}
             if a.centre:
                 variants["centred"] = centred(xy, t, p.pieces)
+            if a.fit:
+                from polishpath.simulate.densityfit import fit_time_density
+
+                variants["fitted"] = fit_time_density(xy, t, p.pieces, tif, spacing_mm=H).xy
             for vname, q in variants.items():
                 c0 = time.process_time()
                 tp, timed = machine_samples(q, t, p.pieces)

@@ -46,7 +46,9 @@ DEFAULT_SPACING_MM = 0.5
 #: lattice peaks (2-5 dB against the grid walk's 13-18 dB) but leave a residual band RMS up to 8 % above the grid
 #: walk's and 21-71 % above the rectangular path's, so the verdict's second condition is not met. The excess sits at
 #: 1-1.5 1/mm (a walk turning at every point spreads its time density there); centring each point's time centroid
-#: narrows it to 11-14 % on a flat square, nothing tried closes it ("Where the walks' band RMS comes from")
+#: narrows it to 11-14 % on a flat square ("Where the walks' band RMS comes from"); the density fit given to every
+#: path (compare_planned(treatment="density-fit"), not a stage of the job) meets it on the saddle, not on the flat
+#: disc (+5 % over the fitted grid walk), so the default stays the grid
 DEFAULT_DWELL_POINTS = "grid"
 #: the job refuses to plan more dwell points than this (memory and time: about 1 KB and 50 us each)
 DEFAULT_MAX_POINTS = 5_000_000

@@ -321,8 +321,16 @@ def _dwell_s_per_point(tif, spacing_mm: float, removal_depth_nm: float):
     return t_point, tif, removal_depth_nm * spacing_mm**2 / (vol * t_point)
 
 
-def check_comparison(*, seeds: int, mode: str, timing: str, time_model: str | None = None) -> None:
-    """Refuse a bad seed count, mode, timing or time model before any work (ParameterError naming the choices)."""
+#: the treatments a comparison gives every path alike (docs/simulation.md, "Where the walks' band RMS comes from")
+TREATMENTS = ("none", "density-fit")
+
+
+def check_comparison(*, seeds: int, mode: str, timing: str, time_model: str | None = None,
+                     treatment: str = "none") -> None:
+    """Refuse a bad seed count, mode, timing, time model or treatment before any work (ParameterError naming the
+    choices)."""
+    if treatment not in TREATMENTS:
+        raise ParameterError(f"unknown treatment {treatment!r}.", f"Use one of: {', '.join(TREATMENTS)}.")
     if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or not 1 <= seeds <= MAX_SEEDS:
         raise ParameterError(f"the number of seeds must be a whole number from 1 to {MAX_SEEDS}, got {seeds!r}.",
                              "Use e.g. --seeds 5 (seed i is the base seed + i).")
@@ -357,7 +365,8 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                     workpiece: Workpiece | None = None, initial_rms_nm: float = 2.0, initial_exponent: float = 2.5,
                     removal_depth_nm: float = 200.0, band=PAPER_BAND_PER_MM, time_model: str | None = None,
                     dwell: str = "equal", patch_bounds=None, out_dir=None, removal_dx_mm: float | None = None,
-                    plan_info: dict | None = None, runner: CaseRunner | None = None) -> dict[str, Any]:
+                    plan_info: dict | None = None, runner: CaseRunner | None = None,
+                    treatment: str = "none") -> dict[str, Any]:
     """The fair comparison of already planned paths over seeds (the Table 4 analogue, docs/simulation.md).
 
     Every path removes the same mean depth (``removal_depth_nm``, inside the
@@ -423,6 +432,11 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         Where the independent cases (path x seed, each path's machine timing) run: every core by
         default, one process, or a Dask cluster (:mod:`polishpath.simulate.cases`); the same result
         whatever the spread.
+    treatment : {"none", "density-fit"}
+        ``"density-fit"``: every path's dwell points are first moved by
+        :func:`~polishpath.simulate.densityfit.fit_time_density` (its time centroids centred, then its
+        machine time density flattened as the tool passes it into 0.95-2 1/mm, within 0.3 h of the planned
+        points), the same for every path; each row records the fit's figures (``treatment``).
 
     Returns
     -------
@@ -436,7 +450,7 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         where ranges overlap), ``params``, ``psds`` (mean over seeds),
         ``residuals`` (first seed's maps), ``table``.
     """
-    check_comparison(seeds=seeds, mode=mode, timing=timing, time_model=time_model)
+    check_comparison(seeds=seeds, mode=mode, timing=timing, time_model=time_model, treatment=treatment)
     if not planned:
         raise ParameterError("no planned path to compare.", "Give at least one pattern.")
     mech = mechanisms or Mechanisms()
@@ -470,6 +484,7 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
     seed_list = [seed + i for i in range(seeds)]
     # the independent cases (path x seed; each distinct path's machine timing once), run by polishpath.simulate.cases
     specs, wished = [], {}
+    fitted, fit_stats = {}, {}
     for i, s_i in enumerate(seed_list):
         for name, pp in planned.items():
             if i > 0 and interference_free and isinstance(pp, PlanarPath):
@@ -477,6 +492,15 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
             p = _per_seed(pp, i, name)
             xy, pieces = np.asarray(p.uv), np.asarray(p.pieces)
             times = _dwell_times(xy, pieces, t0_point * (float(p.spacing) / h0) ** 2, dwell)
+            if treatment == "density-fit":
+                if id(p) not in fitted:  # a deterministic path is fitted once
+                    from .densityfit import fit_time_density
+
+                    fitted[id(p)] = fit_time_density(xy, times, pieces, tif_used, spacing_mm=float(p.spacing),
+                                                     machine=profile)
+                fit = fitted[id(p)]
+                xy = fit.xy
+                fit_stats.setdefault(name, []).append(fit.stats)
             wished[(i, name)] = float(times.sum())
             specs.append((i, s_i, name, p, xy, pieces, times))
     timed, timing_info = {}, {}
@@ -533,6 +557,8 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         r["planar_spacing_mm"] = spacings[r["name"]]
         r["dwell_s_per_point"] = t0_point * (spacings[r["name"]] / h0) ** 2
         r["n_points"] = int(p0.n_points)
+        if r["name"] in fit_stats:
+            r["treatment"] = fit_stats[r["name"]][0] if len(fit_stats[r["name"]]) == 1 else fit_stats[r["name"]]
         if r["name"] in timing_info:
             infos = timing_info[r["name"]]
             r["machine_timing"] = infos[0] if len(infos) == 1 or not r["random"] else {
@@ -542,7 +568,7 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
     params.update({"mode": mode, "timing": time_model or timing, "time_model": tm_all, "seeds": seed_list,
                    "seed": seed, "n_seeds": seeds, "machine_profile": None if profile is None else profile.name,
                    "machine": profile.to_dict() if profile is not None else legacy_machine,
-                   "mechanisms": mech.to_dict(), "dwell": dwell, "patterns": list(planned), "spacing_mm": h0,
+                   "mechanisms": mech.to_dict(), "dwell": dwell, "treatment": treatment, "patterns": list(planned), "spacing_mm": h0,
                    "lattice_peak_at": "each path's own frequencies: 1/(2h), n/h (n = 1..3) of its planar spacing h "
                                       "(the comparison simulates in the plane the paths were planned in); a path "
                                       "without a lattice at 1/(2h), 1/h, sqrt(2)/h, 2/h of its nominal spacing",

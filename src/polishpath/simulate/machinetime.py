@@ -29,7 +29,7 @@ from ..pathops import piece_offsets
 from ..types import PlanarPath, Provenance, SurfacePath
 from .jobpath import TimedPath, timed_path
 
-__all__ = ["COMPARE_TIMINGS", "machine_timed_path"]
+__all__ = ["COMPARE_TIMINGS", "machine_timed_path", "machine_tool_path"]
 
 #: the timings of a comparison
 COMPARE_TIMINGS = ("machine", "ideal")
@@ -39,6 +39,18 @@ def machine_timed_path(xy, dwell_s, pieces=None, *, spacing_mm: float = DEFAULT_
                        period_ms: float | None = None, chord_tol_mm: float | None = None,
                        max_feed_factor: float = MAX_FEED_FACTOR) -> tuple[TimedPath, dict[str, Any]]:
     """The constant-period samples the job would run along planar dwell points, with each move's time.
+
+    :func:`machine_tool_path` without the ToolPath (the same arguments); returns ``(timed, info)``.
+    """
+    _, timed, info = machine_tool_path(xy, dwell_s, pieces, spacing_mm=spacing_mm, machine=machine, period_ms=period_ms,
+                                       chord_tol_mm=chord_tol_mm, max_feed_factor=max_feed_factor)
+    return timed, info
+
+
+def machine_tool_path(xy, dwell_s, pieces=None, *, spacing_mm: float = DEFAULT_SPACING_MM, machine=None,
+                      period_ms: float | None = None, chord_tol_mm: float | None = None,
+                      max_feed_factor: float = MAX_FEED_FACTOR):
+    """The ToolPath the job would run along planar dwell points, and its constant-period samples with their times.
 
     Parameters
     ----------
@@ -61,6 +73,9 @@ def machine_timed_path(xy, dwell_s, pieces=None, *, spacing_mm: float = DEFAULT_
 
     Returns
     -------
+    tool_path : ToolPath
+        The smoothing stage's output (its ``dwell_params`` and ``sample_params`` say which
+        samples run through which dwell point's region).
     timed : TimedPath
         ``time_model="moves"``: the samples and the seconds of each move.
     info : dict
@@ -113,4 +128,4 @@ def machine_timed_path(xy, dwell_s, pieces=None, *, spacing_mm: float = DEFAULT_
     if sched is not None:
         keep = ("machining_time_s", "limited_share", "limited_by", "time_increase", "dwell_time_error")
         info["schedule"] = {k: sched[k] for k in keep}
-    return timed, info
+    return tp, timed, info
