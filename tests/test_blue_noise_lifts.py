@@ -24,19 +24,22 @@ from polishpath.plan.points.blue_noise import EDGE_FACTOR, LEAF_EDGE_FACTOR
 from polishpath.types import Region
 
 
-def disc_of_area(area: float) -> Region:
-    """A disc of ``area`` mm^2 (720 vertices): about ``area`` dwell points at spacing 1 mm (benchmarks/bench_plan.py)."""
-    r = np.sqrt(area / np.pi)
-    t = np.linspace(0, 2 * np.pi, 720, endpoint=False)
-    return Region(np.c_[r * np.cos(t), r * np.sin(t)])
+def _bench_plan():
+    """benchmarks/bench_plan.py as a module: the regions these cases were found on are its own (one definition)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_plan.py"
+    spec = importlib.util.spec_from_file_location("bench_plan", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
-def star_of_area(area: float) -> Region:
-    """A five-pointed star (inner radius 0.45 of the outer) of ``area`` mm^2 (benchmarks/bench_plan.py)."""
-    t = np.linspace(0, 2 * np.pi, 10, endpoint=False) + np.pi / 2
-    rad = np.where(np.arange(10) % 2 == 0, 1.0, 0.45)
-    pts = np.c_[rad * np.cos(t), rad * np.sin(t)]
-    return Region(pts * np.sqrt(area / Region(pts).area))
+_BENCH = _bench_plan()
+#: A disc (720 vertices) or a five-pointed star (inner radius 0.45 of the outer) of ``area`` mm^2: about ``area``
+#: dwell points at spacing 1 mm.
+disc_of_area, star_of_area = _BENCH.disc_region, _BENCH.star_region
 
 
 def _check_one_piece_like_the_grid(region: Region, seed: int) -> None:
