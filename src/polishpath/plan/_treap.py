@@ -16,6 +16,7 @@ generator (seeded by the caller), so a walk is reproducible with its seed.
 from __future__ import annotations
 
 import numba
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 import numpy as np
 
 #: Columns of the treap table ``T`` (n, 6) int32.
