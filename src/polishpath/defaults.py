@@ -48,7 +48,7 @@ DEFAULT_SPACING_MM = 0.5
 #: 1-1.5 1/mm (a walk turning at every point spreads its time density there); centring each point's time centroid
 #: narrows it to 11-14 % on a flat square ("Where the walks' band RMS comes from"); the density fit given to every
 #: path (compare_planned(treatment="density-fit"), not a stage of the job) meets it on the saddle, not on the flat
-#: disc (+5 % over the fitted grid walk), so the default stays the grid
+#: disc (+5 % over the fitted grid walk) nor the hemisphere (+26-37 % over the rectangular path): the grid stays
 DEFAULT_DWELL_POINTS = "grid"
 #: the job refuses to plan more dwell points than this (memory and time: about 1 KB and 50 us each)
 DEFAULT_MAX_POINTS = 5_000_000
