@@ -295,8 +295,8 @@ def predict_residual(fig: Figuring, samples_xyz: np.ndarray, period_ms: float,
         ``delivered_s`` ``delivered_time_error_rms`` / ``_max`` (relative to the solved times).
     """
     s = np.asarray(samples_xyz, dtype=np.float64)
-    if sample_s is None:
-        sample_s = np.full(len(s), period_ms / 1000.0)
+    if sample_s is None:  # one period each: no array of the samples' size (3.3e7 of them in a 10^6-point job)
+        sample_s = np.broadcast_to(np.float64(period_ms / 1000.0), (len(s),))
     sample_s = np.asarray(sample_s, dtype=np.float64)
     removal = removal_map(fig.target.grid, s[:, :2], sample_s, fig.tif)
     valid = fig.target.valid

@@ -22,6 +22,8 @@ import numpy as np
 
 #: sub-intervals per region for the arc-length centroid (Gauss-Legendre nodes)
 _NODES = 8
+#: regions whose nodes are evaluated at once
+_BLOCK = 65536
 
 
 def region_centroids(points_xyz: np.ndarray, pieces: np.ndarray) -> np.ndarray:
@@ -62,10 +64,14 @@ def region_centroids(points_xyz: np.ndarray, pieces: np.ndarray) -> np.ndarray:
         spl = make_interp_spline(d, q, k=min(3, m - 1))
         der = spl.derivative()
         rb = np.concatenate([[d[0]], 0.5 * (d[1:] + d[:-1]), [d[-1]]])
-        u = rb[:-1, None] + (rb[1:] - rb[:-1])[:, None] * gx[None, :]  # (m, nodes)
-        w = np.linalg.norm(der(u.ravel()), axis=1).reshape(u.shape) * (rb[1:] - rb[:-1])[:, None] * gw[None, :]
-        xy = spl(u.ravel())[:, :2].reshape(m, _NODES, 2)
-        out[a:b] = (xy * w[..., None]).sum(axis=1) / np.maximum(w.sum(axis=1), 1e-300)[:, None]
+        # in blocks of regions: the nodes of a 10^6-point piece made about 600 MB of temporaries at once
+        for c in range(0, m, _BLOCK):
+            e = min(m, c + _BLOCK)
+            lo, hi = rb[c:e], rb[c + 1:e + 1]
+            u = lo[:, None] + (hi - lo)[:, None] * gx[None, :]  # (regions, nodes)
+            w = np.linalg.norm(der(u.ravel()), axis=1).reshape(u.shape) * (hi - lo)[:, None] * gw[None, :]
+            xy = spl(u.ravel())[:, :2].reshape(e - c, _NODES, 2)
+            out[a + c:a + e] = (xy * w[..., None]).sum(axis=1) / np.maximum(w.sum(axis=1), 1e-300)[:, None]
     return out
 
 
@@ -136,10 +142,17 @@ def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
     dp = np.asarray(tool_path.dwell_params, dtype=np.float64)
     sp = np.asarray(tool_path.sample_params, dtype=np.float64)
     spieces, ppar = tool_path.sample_pieces, tool_path.piece_params
-    times = sample_times(tool_path, sample_s)
+    # one period per step: the time at a sample is its index x the period (the piece's last step apart), read at
+    # the region boundaries only; no array of the samples' size is made (the 10^6-point figuring job's 3.3e7
+    # samples made four of 260 MB each). With a machine's schedule the times are summed (sample_times)
+    times = None if sample_s is None else sample_times(tool_path, sample_s)
+    T = float(tool_path.period_ms) / 1000.0
+    pts = np.asarray(tool_path.samples)
+    feed = np.asarray(tool_path.feed_mm_min)
     out = np.zeros(len(dp))
     for k in range(len(spieces) - 1):
-        s = sp[spieces[k]:spieces[k + 1]]
+        a, b = int(spieces[k]), int(spieces[k + 1])
+        s = sp[a:b]
         if len(s) == 0:
             continue
         lo, hi = ppar[k], ppar[k + 1]
@@ -148,5 +161,18 @@ def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
             continue
         d = dp[idx]
         rb = np.concatenate([[s[0]], 0.5 * (d[1:] + d[:-1]), [s[-1]]])
-        out[idx] = np.diff(np.interp(rb, s, times[spieces[k]:spieces[k + 1]]))
+        if times is not None:
+            out[idx] = np.diff(np.interp(rb, s, times[a:b]))
+            continue
+        m = b - a
+        if m < 2:
+            continue
+        last = (m - 1) * T  # the time at the piece's last sample: its last step at its length over its feed
+        if len(pts) == len(sp) and feed[b - 1] > 0.0:
+            last = (m - 2) * T + min(T, float(np.linalg.norm(pts[b - 1] - pts[b - 2])) / (feed[b - 1] / 60.0))
+        j = np.clip(np.searchsorted(s, rb, side="right") - 1, 0, m - 2)
+        frac = np.clip((rb - s[j]) / np.where(s[j + 1] > s[j], s[j + 1] - s[j], 1.0), 0.0, 1.0)
+        t0 = j * T
+        t1 = np.where(j + 1 == m - 1, last, (j + 1) * T)
+        out[idx] = np.diff(t0 + frac * (t1 - t0))
     return out
