@@ -67,3 +67,19 @@ def test_region_times_at_the_boundaries_are_the_summed_ones():
     want, got = _region_times_summed(tp), region_times(tp)
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
     assert np.median(np.abs(got / times - 1.0)) < 0.02  # and they are (near) the times asked for
+
+
+def test_boundary_check_in_blocks_is_the_same(monkeypatch):
+    import polishpath.smooth.boundary as bd
+    from test_mapping_helpers import spherical_cap
+
+    cap = spherical_cap(n_r=10, n_phi=32)
+    v = np.asarray(cap.surface.vertices)
+    rng = np.random.default_rng(5)
+    pts = v[rng.integers(0, len(v), 3000)] * np.array([1.01, 1.01, 1.0]) + 0.05 * rng.standard_normal((3000, 3))
+    whole = bd.BoundaryCheck(cap.surface, reach=1.0).near_excursion(pts)
+    monkeypatch.setattr(bd, "QUERY_BLOCK", 7)
+    blocks = bd.BoundaryCheck(cap.surface, reach=1.0).near_excursion(pts)
+    np.testing.assert_array_equal(whole[0], blocks[0])
+    np.testing.assert_array_equal(whole[1], blocks[1])
+    assert len(whole[0]) > 20 and (whole[1] > 0).sum() > 10  # blocks of 7 over many candidates, some beyond

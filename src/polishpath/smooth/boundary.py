@@ -46,6 +46,9 @@ def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
     t = np.clip(np.divide(np.einsum("...j,...j->...", p - a, e), ll, out=np.zeros_like(ll), where=ll > 0), 0.0, 1.0)
     return np.linalg.norm(p - (a + t[..., None] * e), axis=-1)
 
+#: points measured at once (memory: a few hundred bytes each while measured)
+QUERY_BLOCK = 1 << 18
+
 
 @numba.njit(cache=True)
 def _maybe_near(pts, d_anchor, stride, limit):  # pragma: no cover - numba
@@ -106,8 +109,11 @@ def _near_boundary(pts: np.ndarray, tree: cKDTree, limit: float, stride: int = 6
     maybe = _maybe_near(pts, np.ascontiguousarray(d_anchor, dtype=np.float64), int(stride), float(limit))
     if len(maybe) == 0:
         return maybe
-    d, _ = tree.query(pts[maybe])
-    return maybe[d <= limit]
+    keep = np.zeros(len(maybe), dtype=bool)
+    for a in range(0, len(maybe), QUERY_BLOCK):  # in blocks: a figuring job's samples crowd the rim
+        d, _ = tree.query(pts[maybe[a:a + QUERY_BLOCK]])
+        keep[a:a + QUERY_BLOCK] = d <= limit
+    return maybe[keep]
 
 
 class BoundaryCheck:
@@ -148,15 +154,21 @@ class BoundaryCheck:
         cand = _near_boundary(pts, self.tree, self.reach + self.half)
         if len(cand) == 0:
             return none
-        dist, closest = _closest_points(pts[cand], self.v, self.f)
-        # is the closest point on a boundary edge? check the edges whose midpoints are near it
+        exc = np.empty(len(cand))
         k = min(16, len(self.be))
-        _, near = self.tree.query(closest, k=k)
-        near = np.asarray(near).reshape(len(cand), k)
-        d_edge = _edge_distance(np.ascontiguousarray(closest, dtype=np.float64), self.a, self.b,
-                                np.ascontiguousarray(near, dtype=np.int64))
-        on_boundary = d_edge <= 1e-9 * max(self.scale, 1.0)
-        return cand, np.where(on_boundary, dist, 0.0)
+        # in blocks of candidates: the 16 nearest edges of each are 256 bytes, and a figuring job's samples crowd
+        # the rim, where the times are longest (the 10^6-point job: about 1 GB of these at once)
+        for a in range(0, len(cand), QUERY_BLOCK):
+            c = cand[a:a + QUERY_BLOCK]
+            dist, closest = _closest_points(pts[c], self.v, self.f)
+            # is the closest point on a boundary edge? check the edges whose midpoints are near it
+            _, near = self.tree.query(closest, k=k)
+            near = np.asarray(near).reshape(len(c), k)
+            d_edge = _edge_distance(np.ascontiguousarray(closest, dtype=np.float64), self.a, self.b,
+                                    np.ascontiguousarray(near, dtype=np.int64))
+            on_boundary = d_edge <= 1e-9 * max(self.scale, 1.0)
+            exc[a:a + len(c)] = np.where(on_boundary, dist, 0.0)
+        return cand, exc
 
     def tally(self) -> "BoundaryTally":
         """A fresh accumulator of the excursion over chunks of points."""
