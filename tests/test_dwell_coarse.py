@@ -14,9 +14,10 @@ import polishpath.dwell.solver as solver
 from polishpath.dwell import ErrorMap, build_target, gaussian_tif, minimum_times, removal_map, rms_pv, solve_dwell
 
 
-@pytest.fixture(scope="module")
-def problem():
-    spacing, radius = 0.5, 22.0
+def disc_problem(radius: float, tif, ca_margin_mm: float, spacing: float = 0.5):
+    """A flat disc's square lattice of dwell points, a low-order map over it (defocus, astigmatism, coma), the
+    target under ``tif`` with the bias the minimum times need: (xy, ij, target, tif, tmin). Also used by
+    tests/test_dwell_enough.py."""
     h = int(math.ceil(radius / spacing))
     I, J = np.mgrid[-h:h + 1, -h:h + 1]
     ij = np.column_stack([I.ravel(), J.ravel()])
@@ -27,12 +28,17 @@ def problem():
     X, Y = np.meshgrid(x, x)
     r, th = np.hypot(X, Y) / radius, np.arctan2(Y, X)
     z = 20 * (2 * r**2 - 1) + 12 * r**2 * np.cos(2 * th) + 8 * (3 * r**3 - 2 * r) * np.cos(th)
-    tif = gaussian_tif(10.0, fwhm_mm=10.0)  # 20 spacings: one coarse level (1 mm <= 10 / 8 < 2 mm)
     target = build_target(ErrorMap.centred(z, x[1] - x[0]), shapely.Point(0, 0).buffer(radius + 0.1, 256),
-                          band_mm=solver.tif_reach_mm(tif), ca_margin_mm=4.0, extension_weight=0.05)
+                          band_mm=solver.tif_reach_mm(tif), ca_margin_mm=ca_margin_mm, extension_weight=0.05)
     tmin = minimum_times(np.column_stack([xy, np.zeros(len(xy))]), np.array([0, len(xy)]), 3000.0)
     target = target.with_bias(max(float(np.max((removal_map(target.grid, xy, tmin, tif) - target.removal_nm)[target.valid])), 0.0))
     return xy, ij, target, tif, tmin
+
+
+@pytest.fixture(scope="module")
+def problem():
+    # a 10 mm TIF is 20 spacings: one coarse level (1 mm <= 10 / 8 < 2 mm)
+    return disc_problem(22.0, gaussian_tif(10.0, fwhm_mm=10.0), 4.0)
 
 
 def _residual(problem, sol):

@@ -8,10 +8,9 @@ import math
 
 import numpy as np
 import pytest
-import shapely
 
 import polishpath.dwell.solver as solver
-from polishpath.dwell import ErrorMap, build_target, gaussian_tif, minimum_times, removal_map, rms_pv, solve_dwell
+from polishpath.dwell import gaussian_tif, removal_map, rms_pv, solve_dwell
 from polishpath.dwell.bounded import bounded_lsq
 
 
@@ -67,24 +66,9 @@ def test_the_cap_stops_as_converged_and_the_iteration_limit_does_not():
 @pytest.fixture(scope="module")
 def disc():
     """Disc R 30 mm at 0.5 mm, a low-order map, a 3 mm TIF (6 spacings): the map is almost wholly correctable."""
-    spacing, radius = 0.5, 30.0
-    h = int(math.ceil(radius / spacing))
-    I, J = np.mgrid[-h:h + 1, -h:h + 1]
-    ij = np.column_stack([I.ravel(), J.ravel()])
-    xy = ij[:, ::-1] * spacing
-    keep = np.hypot(xy[:, 0], xy[:, 1]) <= radius
-    ij, xy = ij[keep], xy[keep]
-    x = np.linspace(-1.05 * radius, 1.05 * radius, 301)
-    X, Y = np.meshgrid(x, x)
-    r, th = np.hypot(X, Y) / radius, np.arctan2(Y, X)
-    z = 20 * (2 * r**2 - 1) + 12 * r**2 * np.cos(2 * th) + 8 * (3 * r**3 - 2 * r) * np.cos(th)
-    tif = gaussian_tif(10.0, fwhm_mm=3.0)
-    target = build_target(ErrorMap.centred(z, x[1] - x[0]), shapely.Point(0, 0).buffer(radius + 0.1, 256),
-                          band_mm=solver.tif_reach_mm(tif), ca_margin_mm=3.0, extension_weight=0.05)
-    tmin = minimum_times(np.column_stack([xy, np.zeros(len(xy))]), np.array([0, len(xy)]), 3000.0)
-    rmin = removal_map(target.grid, xy, tmin, tif)
-    target = target.with_bias(max(float(np.max((rmin - target.removal_nm)[target.valid])), 0.0))
-    return xy, ij, target, tif, tmin
+    from test_dwell_coarse import disc_problem
+
+    return disc_problem(30.0, gaussian_tif(10.0, fwhm_mm=3.0), 3.0)
 
 
 def test_solve_stops_once_the_residual_is_under_a_share_of_the_error(disc):
