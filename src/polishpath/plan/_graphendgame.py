@@ -350,8 +350,11 @@ def _in_block(x, a, L, nx):
 
 @numba.njit(cache=True)
 def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid, nxt, prv, T, stack, P, inq, queue,
-                         mark, buf, max_blind, sp):  # pragma: no cover - numba
+                         mark, buf, max_blind, sp, pin):  # pragma: no cover - numba
     """Plan one connected component of the graph; leaves its pieces linked in ``nxt`` / ``prv``.
+
+    ``pin``: the walk keeps ``start`` its first point (:func:`._graphwalk.graph_walk`); the sub-walks of what is
+    left do not need to.
 
     Returns
     -------
@@ -362,7 +365,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
     stats = np.zeros(N_GRAPH_STATS, dtype=np.int64)
     n = nodes.shape[0]
     max_kicks = 1000 + n // 20
-    k = graph_walk(start, walk_id, n, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp)
+    k = graph_walk(start, walk_id, n, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp, pin)
     stats[ST_PHASE1] = k
     link_path(P, k, nxt, prv)
     placed = k
@@ -415,7 +418,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
         if vis[u] == 1:
             continue
         # a sub-walk from the leftover point: a piece of its own, then joined if it can be
-        m = graph_walk(u, wk, n, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp)
+        m = graph_walk(u, wk, n, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp, np.int64(0))
         wk += 1
         stats[ST_SUBWALK] += 1
         link_path(P, m, nxt, prv)

@@ -153,7 +153,8 @@ def nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H,
 
 
 @numba.njit(cache=True)
-def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp):  # pragma: no cover
+def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp,
+               pin):  # pragma: no cover
     """Random self-avoiding walk along graph edges from ``start`` with Posa turnarounds at any distance.
 
     Parameters
@@ -179,6 +180,9 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
         Rotations in a row that do not free the head before the walk ends.
     stats : (N_GRAPH_STATS,) int64
         Counters, incremented.
+    pin : int64
+        1: keep ``start`` the path's first point (a start the user asked for): no whole-path reversal, and a point
+        of one neighbour is stepped into only as the last point.
     sp : tuple
         ``(xy, lab, comp, cells, cstart, x0, y0, cw, W, H, steer)``: the points (n, 2) mm, their component
         labels, this component, the cell lists of :func:`nearest_unvisited_pt` and the steering radius
@@ -223,7 +227,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
                 elif nav < cap:
                     cand[nav] = q
                     nav += 1
-        if leaf >= 0 and (k + 1 == n_comp or (first != h and indptr[first + 1] - indptr[first] != 1)):
+        if leaf >= 0 and (k + 1 == n_comp or (not pin and first != h and indptr[first + 1] - indptr[first] != 1)):
             # step into the leaf and make it the path's first point (reverse the path): the walk goes on from
             # the other end (turning around there if it cannot move on); or the leaf is the last point. When
             # the first point is a leaf already, the leaf waits: a head that stepped in would be stuck for good
@@ -292,7 +296,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
                     best = cand_t[i]
                     r = i
             t, sq = cand_t[r], cand_s[r]
-        elif k > 1 and _has_free(first, indptr, indices, vis):
+        elif not pin and k > 1 and _has_free(first, indptr, indices, vis):
             # the other end of the path can move on: reverse the whole path (O(1): the root's flag), so that
             # it is the head; the walk goes on there instead of wandering blind or giving points back (a head
             # at a rim point of one neighbour has no turnaround at all)

@@ -220,7 +220,8 @@ def plan(
     seed = resolve_seed(seed)  # checked, or drawn when None: the one place (polishpath.provenance)
     start_pt = region.centroid if start is None else check_point(start, "The start point")
     if dwell_points != "grid":
-        return _plan_blue_noise(region, spacing, pattern, seed=seed, start_pt=start_pt, margin=margin,
+        return _plan_blue_noise(region, spacing, pattern, seed=seed, start_pt=start_pt, pin_start=start is not None,
+                                margin=margin,
                                 origin=origin, rotation=rotation, options=options, dwell_points=dwell_points)
     t0 = time.perf_counter()
     grid = dwell_grid(region, spacing, margin=margin, origin=origin, rotation=rotation)
@@ -273,7 +274,8 @@ def plan(
     )
 
 
-def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int, start_pt: np.ndarray, margin: float,
+def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int, start_pt: np.ndarray,
+                     pin_start: bool = False, margin: float,
                      origin, rotation: float, options: dict, dwell_points: str = "blue-noise") -> PlanarPath:
     """:func:`plan` on a blue-noise set (no lattice): the pseudo-random walk along its neighbour graph.
 
@@ -293,11 +295,14 @@ def _plan_blue_noise(region: Region, spacing: float, pattern: str, *, seed: int,
     pts = build(region, spacing, seed=seed, margin=margin)
     t1 = time.perf_counter()
     start_idx = int(np.argmin(np.hypot(pts.uv[:, 0] - start_pt[0], pts.uv[:, 1] - start_pt[1])))
-    order, pieces, stats = graph_walk_order(pts, seed=seed, start=start_idx, **options)
+    # a start the user gave is the path's first point; the default (nearest the centre) is where the walk grows
+    # from, and the path may begin elsewhere (stats["first_point"])
+    order, pieces, stats = graph_walk_order(pts, seed=seed, start=start_idx, pin_start=pin_start, **options)
     t2 = time.perf_counter()
     visited = np.zeros(pts.n, dtype=bool)
     visited[order] = True
-    stats.update(n_pieces=int(len(pieces) - 1), start_point=start_idx, points_seconds=t1 - t0,
+    stats.update(n_pieces=int(len(pieces) - 1), start_point=start_idx, first_point=int(order[0]),
+                 points_seconds=t1 - t0,
                  grid_seconds=t1 - t0, seconds=t2 - t0, min_distance=pts.min_distance,
                  edges=int(len(pts.indices) // 2))
     params = {

@@ -41,7 +41,7 @@ def check_points_set(points) -> BlueNoisePoints:
     return points
 
 
-def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0,
+def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0, pin_start: bool = False,
                      max_blind: int = 10, steer: int = 32, backtrack: int = 5,
                      backtrack_budget: float = 0.05) -> tuple[np.ndarray, np.ndarray, dict]:
     """Order of the dwell points along a pseudo-random path of their neighbour graph.
@@ -53,7 +53,13 @@ def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0,
     seed : int
         Seed (0 <= seed < 2**63); same seed, same path. Each component gets its own numba seed drawn from it.
     start : int
-        Point number where the path starts.
+        Point number where the walk starts.
+    pin_start : bool
+        The path's first point must be ``start`` (a start point the user asked for). Without it the walk
+        grows from ``start`` but may turn the whole path round (at a rim point of one neighbour, or where
+        only the other end can move on: fewer tool lifts), so the path begins at another point. With it
+        the walk never does; should the end-game still leave ``start`` inside its piece, the piece is cut
+        there (one tool lift more, counted in ``start_cut``) so that the path begins at ``start``.
     max_blind : int
         Turnarounds in a row that do not free the head before the walk hands over to the end-game.
     steer : int
@@ -126,15 +132,20 @@ def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0,
     n_done = 0
     prev_end = points.uv[start]
     walk_id = 1
+    start_cut = 0
     for rank, c in enumerate(comp_order):
         members = np.ascontiguousarray(sort[bounds[c]:bounds[c + 1]], dtype=np.int64)
         s = start if rank == 0 else int(members[np.argmin(np.hypot(*(points.uv[members] - prev_end).T))])
         tot += plan_graph_component(members, s, int(seeds[c]), walk_id, indptr, indices, vis, wid, nxt, prv, T,
                                     stack, P, inq, queue, mark, buf, max_blind,
                                     (points.uv, lab64, int(c), cells, cstart, float(x0), float(y0), float(cw), W, H,
-                                     steer, backtrack, int(backtrack_budget * len(members))))
+                                     steer, backtrack, int(backtrack_budget * len(members))),
+                                    np.int64(bool(pin_start) and rank == 0))
         walk_id = int(wid.max()) + 1
         ordc, offc = collect_pieces(members, s, vis, nxt, prv)
+        if pin_start and rank == 0 and ordc[0] != s:
+            ordc, offc, cut = _begin_at(ordc, offc, s)
+            start_cut += cut
         orders.append(ordc)
         piece_offs.append(offc[1:] + n_done)
         n_done += len(ordc)
@@ -143,4 +154,21 @@ def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0,
     pieces = np.concatenate(piece_offs)
     stats = walk_stats(tot[:N_STATS], int(ncomp), len(pieces) - 1, n, time.perf_counter() - t0)
     stats["reversals"] = int(tot[ST_FLIP])
+    stats["start_cut"] = start_cut
     return order, pieces, stats
+
+
+def _begin_at(order: np.ndarray, offs: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """``order`` (its first piece holding ``s``) rearranged so that the path begins at ``s``.
+
+    ``s`` at the far end of its piece: the piece reversed (the same edges). Inside it: the piece cut at ``s``,
+    ``s`` to its end first and the part before it after (one piece more). Returns (order, offsets, pieces added).
+    """
+    a, b = int(offs[0]), int(offs[1])
+    at = int(np.flatnonzero(order[a:b] == s)[0]) + a
+    if at == b - 1:
+        out = order.copy()
+        out[a:b] = order[a:b][::-1]
+        return out, offs, 0
+    out = np.concatenate([order[at:b], order[a:at], order[b:]])
+    return out, np.concatenate([[0, b - at], offs[1:]]).astype(offs.dtype), 1
