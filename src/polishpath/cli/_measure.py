@@ -28,6 +28,7 @@ def simulate_cmd(
     mode: str = typer.Option("process", "--mode", help="SURFACE: 'process' (rough start, process noise, pad smoothing) or 'interference-free' (flat start, no noise: only the path's own marks)."),
     machine: Optional[str] = typer.Option(None, "--machine", help="SURFACE, machine timing: a machine profile (TOML file, see examples/machine-*.toml, or generic-3axis) whose axis limits slow the tool down at turns."),
     without: Optional[str] = typer.Option(None, "--without", help="SURFACE: switch mechanisms off, comma-separated: footprint (zero-feed footprint), edge (smooth pressure), smoothing, noise, slowdown (ideal timing)."),
+    treatment: str = typer.Option("none", "--treatment", help="SURFACE: what every path gets alike before it is simulated: 'none' (as planned) or 'density-fit' (dwell points moved <= 0.3 spacing so the machine's time density is flat where the tool passes it; docs/simulation.md). The job's own G-code gets no such fit."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", help="Output folder (default: out-simulate; RUN_DIR: RUN_DIR/simulation). A run folder gets a simulation/ subfolder and its report is rebuilt."),
     patch: float = typer.Option(DEFAULT_PATCH_MM, "--patch", help="SURFACE: side of the simulated square patch at the region's centre, mm."),
     dx: Optional[float] = typer.Option(None, "--dx", help="Simulation pixel pitch, mm (SURFACE default 0.005: 5 um resolves 100 1/mm; RUN_DIR default: the finest of 5 um that keeps the whole part within 4 M pixels)."),
@@ -89,7 +90,8 @@ def simulate_cmd(
             from ..simulate.compare import check_comparison
             from ..simulate.mechanisms import parse_mechanisms
 
-            check_comparison(seeds=seeds, mode=mode, timing=timing, time_model=time_model)  # before any work
+            check_comparison(seeds=seeds, mode=mode, timing=timing, time_model=time_model,
+                             treatment=treatment)  # before any work
             mech = parse_mechanisms(without)
             prof = None
             if machine is not None:
@@ -100,7 +102,8 @@ def simulate_cmd(
                                spacing_on=spacing_on, seed=0 if seed is None else seed, patch=patch,
                                dx=0.005 if dx is None else dx, depth=depth, time_model=time_model, method=method,
                                units=units, scale=scale, component=component, json_out=json_out, seeds=seeds,
-                               mode=mode, timing=timing, machine=prof, mechanisms=mech, runner=runner)
+                               mode=mode, timing=timing, machine=prof, mechanisms=mech, runner=runner,
+                               treatment=treatment)
 
 
 def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, dx, depth, seed, json_out) -> None:
@@ -141,7 +144,7 @@ def _simulate_run(run_dir: Path, output: Optional[Path], tif, *, plane, timing, 
 
 def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, spacing_on, seed, patch, dx, depth,
                        time_model, method, units, scale, component, json_out, seeds, mode, timing, machine,
-                       mechanisms, runner) -> None:
+                       mechanisms, runner, treatment="none") -> None:
     """``polishpath simulate SURFACE``: plan each pattern through pipeline.plan_on_surface, compare in the plane."""
     from .. import progress
     from ..errors import ParameterError
@@ -175,7 +178,7 @@ def _simulate_patterns(surface: str, output: Path, tif, *, patterns, spacing, sp
                                   mechanisms=mechanisms, dx_mm=dx, tif=tif, removal_depth_nm=depth,
                                   time_model=time_model, patch_bounds=bounds,
                                   out_dir=stage / "simulation" if into_run else stage, plan_info=info,
-                                  runner=runner)
+                                  runner=runner, treatment=treatment)
         except PatchTooSmallError:
             raise PatchTooSmallError(f"--patch {patch:g} mm is too small for this tool: the PSD is evaluated "
                                      "inside the patch, away from its edges by the tool's reach.",
