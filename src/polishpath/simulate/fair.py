@@ -264,27 +264,34 @@ def band_rms_nm(map_nm, dx_mm: float, band=PAPER_BAND_PER_MM, mask=None) -> floa
     return _band_rms(z, w, dx_mm, lo, hi)
 
 
-def _band_rms(z: np.ndarray, w: np.ndarray, dx_mm: float, lo: float, hi: float) -> float:
-    """:func:`band_rms_nm` of a prepared map (0 outside the window) and its window."""
+def _spectrum_blocks(z: np.ndarray, w: np.ndarray, dx_mm: float):
+    """The windowed map's one-sided power spectrum in blocks of rows: yields ``(|f|^2 (1/mm^2), power)`` per block.
+
+    The half spectrum stands for both halves, except the columns without a twin (0 and Nyquist); in blocks of
+    rows, so that no full-size frequency or mask array is made. The powers sum to the windowed map's squared
+    sum times ``z.size`` (divide by ``z.size * sum(w^2)`` for nm^2)."""
     import scipy.fft as sfft
 
     ny, nx = z.shape
     Z = sfft.rfft2(z * w, workers=2)
     fx = sfft.rfftfreq(nx, d=dx_mm)
     fy = sfft.fftfreq(ny, d=dx_mm)
-    # the half spectrum stands for both halves, except the columns without a twin (0 and Nyquist)
     mult = np.full(len(fx), 2.0)
     mult[0] = 1.0
     if nx % 2 == 0:
         mult[-1] = 1.0
-    power = 0.0
-    for r0 in range(0, ny, _BLOCK_ROWS):  # in blocks of rows: no full-size frequency or mask arrays
+    for r0 in range(0, ny, _BLOCK_ROWS):
         r1 = min(ny, r0 + _BLOCK_ROWS)
-        fr2 = fx[None, :] ** 2 + fy[r0:r1, None] ** 2
-        inband = (fr2 >= lo * lo) & (fr2 <= hi * hi)
         blk = Z[r0:r1]
-        power += float(np.sum(((blk.real ** 2 + blk.imag ** 2) * mult[None, :])[inband]))
-    return float(np.sqrt(power / (ny * nx * np.sum(w * w))))
+        yield fx[None, :] ** 2 + fy[r0:r1, None] ** 2, (blk.real ** 2 + blk.imag ** 2) * mult[None, :]
+
+
+def _band_rms(z: np.ndarray, w: np.ndarray, dx_mm: float, lo: float, hi: float) -> float:
+    """:func:`band_rms_nm` of a prepared map (0 outside the window) and its window."""
+    power = 0.0
+    for fr2, pw in _spectrum_blocks(z, w, dx_mm):
+        power += float(np.sum(pw[(fr2 >= lo * lo) & (fr2 <= hi * hi)]))
+    return float(np.sqrt(power / (z.size * np.sum(w * w))))
 
 
 def band_powers_nm2(map_nm, dx_mm: float, edges, mask=None) -> np.ndarray:
@@ -312,32 +319,19 @@ def band_powers_nm2(map_nm, dx_mm: float, edges, mask=None) -> np.ndarray:
     (K,) float64
         nm^2 per ring.
     """
-    import scipy.fft as sfft
-
     e = np.asarray(edges, dtype=np.float64).ravel()
     if e.size < 2 or not np.all(np.isfinite(e)) or e[0] < 0 or np.any(np.diff(e) <= 0):
         raise ParameterError(f"edges must be at least two increasing frequencies >= 0 (1/mm), got {edges!r}.",
                              "Give ring edges such as (1, 1.5, 2, 3, 100).")
     z, w, _, _ = _prepared(map_nm, dx_mm, (float(e[0]), float(e[-1])), mask)
-    ny, nx = z.shape
-    Z = sfft.rfft2(z * w, workers=2)
-    fx = sfft.rfftfreq(nx, d=dx_mm)
-    fy = sfft.fftfreq(ny, d=dx_mm)
-    mult = np.full(len(fx), 2.0)  # the half spectrum stands for both halves (see _band_rms)
-    mult[0] = 1.0
-    if nx % 2 == 0:
-        mult[-1] = 1.0
     out = np.zeros(e.size - 1)
-    for r0 in range(0, ny, _BLOCK_ROWS):
-        r1 = min(ny, r0 + _BLOCK_ROWS)
-        f = np.sqrt(fx[None, :] ** 2 + fy[r0:r1, None] ** 2).ravel()
-        blk = Z[r0:r1]
-        pw = ((blk.real ** 2 + blk.imag ** 2) * mult[None, :]).ravel()
+    for fr2, pw in _spectrum_blocks(z, w, dx_mm):
+        f = np.sqrt(fr2).ravel()
         ring = np.searchsorted(e, f, side="right") - 1
         ring[f == e[-1]] = e.size - 2  # the last ring is closed
         ok = (ring >= 0) & (ring < e.size - 1)
-        out += np.bincount(ring[ok], weights=pw[ok], minlength=e.size - 1)
-    return out / (ny * nx * np.sum(w * w))
+        out += np.bincount(ring[ok], weights=pw.ravel()[ok], minlength=e.size - 1)
+    return out / (z.size * np.sum(w * w))
 
 
 # --- lattice peaks ------------------------------------------------------------------------
