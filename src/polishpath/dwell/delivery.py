@@ -103,8 +103,6 @@ def sample_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
     sp = np.asarray(tool_path.sample_params, dtype=np.float64)
     T = float(tool_path.period_ms) / 1000.0
     spieces = np.asarray(tool_path.sample_pieces, dtype=np.int64)
-    pts = np.asarray(tool_path.samples, dtype=np.float64)
-    feed = np.asarray(tool_path.feed_mm_min, dtype=np.float64) / 60.0
     out = np.zeros(len(sp))
     for k in range(len(spieces) - 1):
         a, b = int(spieces[k]), int(spieces[k + 1])
@@ -116,13 +114,22 @@ def sample_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
             w = np.asarray(sample_s, dtype=np.float64)[a:b]
         # the step arriving at a sample runs at that sample's feed (as the G-code's block to it does)
         tt = np.concatenate([[0.0], np.cumsum(w[1:])])
-        if b - a >= 2 and len(pts) == len(sp) and feed[b - 1] > 0.0:
-            # the last step's length over its feed, at most its whole time (the kernel aims every other step's
-            # chord at feed x period, to 1e-6: those keep their period exactly)
-            last = float(np.linalg.norm(pts[b - 1] - pts[b - 2]))
-            tt[-1] = tt[-2] + min(w[-1], last / feed[b - 1])
+        last = _last_step_s(tool_path, b) if b - a >= 2 else None
+        if last is not None:
+            tt[-1] = tt[-2] + min(w[-1], last)  # at most its whole time
         out[a:b] = tt
     return out
+
+
+def _last_step_s(tool_path, b: int) -> float | None:
+    """The step that ends a piece at sample ``b - 1`` (cut short at the piece's end) over its feed, s; None where
+    the samples or the feed do not say (the step then takes its whole time). The callers keep it at most that
+    time; the kernel aims every other step's chord at feed x period, to 1e-6: those keep their period exactly."""
+    pts, feed = tool_path.samples, tool_path.feed_mm_min
+    if len(pts) != len(tool_path.sample_params) or not feed[b - 1] > 0.0:
+        return None
+    step = float(np.linalg.norm(np.asarray(pts[b - 1], dtype=np.float64) - np.asarray(pts[b - 2], dtype=np.float64)))
+    return step / (float(feed[b - 1]) / 60.0)
 
 
 def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
@@ -147,8 +154,6 @@ def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
     # samples made four of 260 MB each). With a machine's schedule the times are summed (sample_times)
     times = None if sample_s is None else sample_times(tool_path, sample_s)
     T = float(tool_path.period_ms) / 1000.0
-    pts = np.asarray(tool_path.samples)
-    feed = np.asarray(tool_path.feed_mm_min)
     out = np.zeros(len(dp))
     for k in range(len(spieces) - 1):
         a, b = int(spieces[k]), int(spieces[k + 1])
@@ -167,9 +172,9 @@ def region_times(tool_path, sample_s: np.ndarray | None = None) -> np.ndarray:
         m = b - a
         if m < 2:
             continue
-        last = (m - 1) * T  # the time at the piece's last sample: its last step at its length over its feed
-        if len(pts) == len(sp) and feed[b - 1] > 0.0:
-            last = (m - 2) * T + min(T, float(np.linalg.norm(pts[b - 1] - pts[b - 2])) / (feed[b - 1] / 60.0))
+        # the time at the piece's last sample: its last step at its length over its feed, at most a period
+        step = _last_step_s(tool_path, b)
+        last = (m - 1) * T if step is None else (m - 2) * T + min(T, step)
         j = np.clip(np.searchsorted(s, rb, side="right") - 1, 0, m - 2)
         frac = np.clip((rb - s[j]) / np.where(s[j + 1] > s[j], s[j + 1] - s[j], 1.0), 0.0, 1.0)
         t0 = j * T
