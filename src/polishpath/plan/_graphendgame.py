@@ -157,8 +157,12 @@ def _try_kick(u, indptr, indices, vis, nxt, prv, out):
 
 
 @numba.njit(cache=True)
-def _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks):
-    """Splice queued points until the queue is empty (a placed point queues its unvisited neighbours)."""
+def _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks, blk, ucnt):
+    """Splice queued points until the queue is empty (a placed point queues its unvisited neighbours).
+
+    A kick gives points back (``vis`` 0): their blocks' counts ``ucnt[blk[.]]`` of unvisited points (the steering
+    search's, :func:`._graphwalk.nearest_unvisited_pt`) go up, so that the counts never fall short.
+    """
     cap = queue.shape[0]
     kicked = np.empty(KICK_MAX, dtype=np.int64)
     while qh < qt:
@@ -181,6 +185,7 @@ def _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_
                 stats[ST_KICK] += 1
                 for i in range(m):
                     z = kicked[i]
+                    ucnt[blk[z]] += 1
                     if inq[z] == 0:
                         inq[z] = 1
                         queue[qt % cap] = z
@@ -363,6 +368,8 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
     """
     np.random.seed(seed)
     stats = np.zeros(N_GRAPH_STATS, dtype=np.int64)
+    blk = sp[13]
+    ucnt = sp[14]
     n = nodes.shape[0]
     max_kicks = 1000 + n // 20
     k = graph_walk(start, walk_id, n, indptr, indices, vis, wid, T, stack, P, max_blind, stats, sp, pin)
@@ -379,7 +386,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
             inq[u] = 1
             queue[qt % cap] = u
             qt += 1
-    qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks)
+    qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks, blk, ucnt)
     # again over what is left while that places points (a 2-opt move changes the path near other leftovers)
     while True:
         before = qt
@@ -392,7 +399,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
         if qt == before:
             break
         placed0 = stats[ST_SPLICE] + stats[ST_APPEND] + stats[ST_TWOOPT] + stats[ST_KICK]
-        qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks)
+        qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks, blk, ucnt)
         if stats[ST_SPLICE] + stats[ST_APPEND] + stats[ST_TWOOPT] + stats[ST_KICK] == placed0:
             break
     # what is left: or-opt moves (a neighbour moved beside another with the point between), while that places
@@ -411,7 +418,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
                         inq[q] = 1
                         queue[qt % cap] = q
                         qt += 1
-                qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, np.int64(0))
+                qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, np.int64(0), blk, ucnt)
     wk = walk_id + 1
     for i in range(n):
         u = nodes[i]
@@ -429,7 +436,7 @@ def plan_graph_component(nodes, start, seed, walk_id, indptr, indices, vis, wid,
                     inq[q] = 1
                     queue[qt % cap] = q
                     qt += 1
-        qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks)
+        qh, qt = _splice_loop(queue, qh, qt, inq, indptr, indices, vis, nxt, prv, stats, max_kicks, blk, ucnt)
         s0 = P[0]
         while prv[s0] >= 0:
             s0 = prv[s0]

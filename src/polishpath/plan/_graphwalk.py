@@ -104,14 +104,64 @@ def _adjacent(p, q, indptr, indices):
     return False
 
 
+#: Side of the steering search's blocks, in cells: the search skips a block that holds no unvisited point.
+BLOCK = 8
+
+
 @numba.njit(cache=True)
-def nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, rmax, indptr):
+def _scan_run(cx, cy, dx, dy, m, xy, h, vis, lab, comp, cells, cstart, W, H, indptr, ucnt, WB, best, bestd, leaf,
+              leafd):
+    """The cells ``(cx + i dx, cy + i dy)``, ``i < m``, of the steering search (inside the grid), skipping the
+    blocks (``BLOCK`` x ``BLOCK`` cells) whose count ``ucnt`` of unvisited points is 0; returns the nearest
+    non-leaf and the nearest leaf so far, with their squared distances."""
+    if dx > 0:  # a row: the part of it inside the grid
+        if cy < 0 or cy >= H:
+            return best, bestd, leaf, leafd
+        i = max(0, -cx)
+        m = min(m, W - cx)
+    else:  # a column
+        if cx < 0 or cx >= W:
+            return best, bestd, leaf, leafd
+        i = max(0, -cy)
+        m = min(m, H - cy)
+    while i < m:
+        x = cx + i * dx
+        y = cy + i * dy
+        if ucnt[(y // BLOCK) * WB + x // BLOCK] == 0:
+            # jump to the first cell of the run past this block
+            if dx > 0:
+                i += BLOCK - x % BLOCK
+            else:
+                i += BLOCK - y % BLOCK
+            continue
+        c = y * W + x
+        for t in range(cstart[c], cstart[c + 1]):
+            q = cells[t]
+            if vis[q] == 0 and lab[q] == comp:
+                ex = xy[q, 0] - xy[h, 0]
+                ey = xy[q, 1] - xy[h, 1]
+                d = ex * ex + ey * ey
+                if indptr[q + 1] - indptr[q] == 1:
+                    if d < leafd:
+                        leafd = d
+                        leaf = q
+                elif d < bestd:
+                    bestd = d
+                    best = q
+        i += 1
+    return best, bestd, leaf, leafd
+
+
+@numba.njit(cache=True)
+def nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, rmax, indptr, ucnt, WB):
     """Nearest unvisited point of component ``comp`` in the cell rings around point ``h`` (up to ``rmax`` rings), or -1.
 
     ``cells`` / ``cstart`` list the points of each cell of side ``cw`` mm (cell ``(cx, cy)`` is
     ``cy * W + cx``, corner ``(x0, y0)``); the first ring that holds one decides (then the nearer of
     that ring and the next, by distance). A leaf of the graph (one neighbour, ``indptr``: a path can only
-    end there) is the answer only when no other unvisited point is within reach.
+    end there) is the answer only when no other unvisited point is within reach. ``ucnt`` counts at least the
+    unvisited points of each block of ``BLOCK`` x ``BLOCK`` cells (``WB`` blocks a row): a block counted 0 is
+    skipped (most of the area around a stuck head is visited already).
     """
     hx = int((xy[h, 0] - x0) / cw)
     hy = int((xy[h, 1] - y0) / cw)
@@ -123,32 +173,21 @@ def nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H,
     for r in range(0, rmax + 1):
         if found_ring >= 0 and r > found_ring + 1:
             break
-        for cy in range(hy - r, hy + r + 1):
-            if cy < 0 or cy >= H:
-                continue
-            step = 1 if (cy == hy - r or cy == hy + r) else 2 * r
-            if step == 0:
-                step = 1
-            cx = hx - r
-            while cx <= hx + r:
-                if 0 <= cx < W:
-                    c = cy * W + cx
-                    for t in range(cstart[c], cstart[c + 1]):
-                        q = cells[t]
-                        if vis[q] == 0 and lab[q] == comp:
-                            dx = xy[q, 0] - xy[h, 0]
-                            dy = xy[q, 1] - xy[h, 1]
-                            d = dx * dx + dy * dy
-                            if indptr[q + 1] - indptr[q] == 1:
-                                if d < leafd:
-                                    leafd = d
-                                    leaf = q
-                            elif d < bestd:
-                                bestd = d
-                                best = q
-                                if found_ring < 0:
-                                    found_ring = r
-                cx += step
+        if r == 0:
+            best, bestd, leaf, leafd = _scan_run(hx, hy, 1, 0, 1, xy, h, vis, lab, comp, cells, cstart, W, H, indptr,
+                                                 ucnt, WB, best, bestd, leaf, leafd)
+        else:
+            # the ring's rows (top and bottom, whole) and columns (left and right, between the rows)
+            best, bestd, leaf, leafd = _scan_run(hx - r, hy - r, 1, 0, 2 * r + 1, xy, h, vis, lab, comp, cells,
+                                                 cstart, W, H, indptr, ucnt, WB, best, bestd, leaf, leafd)
+            best, bestd, leaf, leafd = _scan_run(hx - r, hy + r, 1, 0, 2 * r + 1, xy, h, vis, lab, comp, cells,
+                                                 cstart, W, H, indptr, ucnt, WB, best, bestd, leaf, leafd)
+            best, bestd, leaf, leafd = _scan_run(hx - r, hy - r + 1, 0, 1, 2 * r - 1, xy, h, vis, lab, comp, cells,
+                                                 cstart, W, H, indptr, ucnt, WB, best, bestd, leaf, leafd)
+            best, bestd, leaf, leafd = _scan_run(hx + r, hy - r + 1, 0, 1, 2 * r - 1, xy, h, vis, lab, comp, cells,
+                                                 cstart, W, H, indptr, ucnt, WB, best, bestd, leaf, leafd)
+        if best >= 0 and found_ring < 0:
+            found_ring = r
     return best if best >= 0 else leaf
 
 
@@ -193,7 +232,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
     int
         Length k of the walk: its nodes are ``P[:k]``.
     """
-    xy, lab, comp, cells, cstart, x0, y0, cw, W, H, steer, backtrack, budget = sp
+    xy, lab, comp, cells, cstart, x0, y0, cw, W, H, steer, backtrack, budget, blk, ucnt, WB = sp
     tgt = -1
     blind_limit = max_blind
     radius = steer
@@ -206,6 +245,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
     first = start  # the path's other end (a turnaround or a give-back keeps it; a reversal swaps the two)
     wid[start] = walk_id
     vis[start] = 1
+    ucnt[blk[start]] -= 1
     k = np.int64(1)  # int64 from the start: a literal 1 compiled tgive_back a second time
     blind = 0
     cap = 64
@@ -236,6 +276,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
             root = tmerge(root, leaf, T, stack)
             wid[leaf] = walk_id
             vis[leaf] = 1
+            ucnt[blk[leaf]] -= 1
             k += 1
             stats[ST_STEPS] += 1
             T[root, TV] ^= 1
@@ -261,6 +302,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
             head = q
             wid[q] = walk_id
             vis[q] = 1
+            ucnt[blk[q]] -= 1
             k += 1
             blind = 0
             tgt = -1
@@ -314,7 +356,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
             blind += 1
             stats[ST_BLIND] += 1
             if tgt < 0 or vis[tgt] == 1:
-                tgt = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, radius, indptr)
+                tgt = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, radius, indptr, ucnt, WB)
             if tgt >= 0 and np.random.random() < 0.75:
                 bestd = 1e300
                 for i in range(nany):
@@ -330,7 +372,9 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
         if r < 0:
             # the paper's step 7: give back the last points and walk on (budgeted)
             if backtrack > 0 and deleted + backtrack <= budget and k > backtrack + 1:
-                root, _ = tgive_back(root, k, backtrack, T, stack, P, vis, wid)
+                root, c = tgive_back(root, k, backtrack, T, stack, P, vis, wid)
+                for i in range(1, c):
+                    ucnt[blk[P[i]]] += 1
                 head = P[0]  # (the path's first point stays: k > backtrack + 1)
                 k -= backtrack
                 deleted += backtrack
@@ -339,7 +383,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
             # escape: steered rotations toward an unvisited point up to 8 x steer cells away, a bounded
             # number of times
             if escapes < max_escapes and blind_limit == max_blind:
-                t2 = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, 8 * steer, indptr)
+                t2 = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, 8 * steer, indptr, ucnt, WB)
                 if t2 >= 0:
                     escapes += 1
                     stats[ST_ESCAPE] += 1

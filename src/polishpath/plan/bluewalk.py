@@ -15,14 +15,16 @@ from __future__ import annotations
 
 import time
 
+import numba
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
+from .. import _numba_cache  # noqa: F401  (numba's cache keyed on the kernels called)
 from ..errors import ParameterError
 from ._graphendgame import plan_graph_component
 from ._steps import N_STATS
-from ._graphwalk import N_GRAPH_STATS, ST_FLIP
+from ._graphwalk import BLOCK, N_GRAPH_STATS, ST_FLIP
 from ._component import collect_pieces
 from .checks import check_count, check_index, check_number, check_seed
 from .points.blue_noise import BlueNoisePoints, cell_lists
@@ -126,6 +128,8 @@ def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0, pin_
     cells, cstart, x0, y0, W, H = cell_lists(points.uv, points.spacing)
     cw = points.spacing
     lab64 = lab.astype(np.int64)
+    # the steering search's blocks of BLOCK x BLOCK cells and their counts of unvisited points (all, at first)
+    blk, ucnt, WB = _blocks(points.uv, float(x0), float(y0), float(cw), W, H)
 
     tot = np.zeros(N_GRAPH_STATS, dtype=np.int64)
     orders, piece_offs = [], [np.zeros(1, dtype=np.int64)]
@@ -139,7 +143,7 @@ def graph_walk_order(points: BlueNoisePoints, *, seed: int, start: int = 0, pin_
         tot += plan_graph_component(members, s, int(seeds[c]), walk_id, indptr, indices, vis, wid, nxt, prv, T,
                                     stack, P, inq, queue, mark, buf, max_blind,
                                     (points.uv, lab64, int(c), cells, cstart, float(x0), float(y0), float(cw), W, H,
-                                     steer, backtrack, int(backtrack_budget * len(members))),
+                                     steer, backtrack, int(backtrack_budget * len(members)), blk, ucnt, WB),
                                     np.int64(bool(pin_start) and rank == 0))
         walk_id = int(wid.max()) + 1
         ordc, offc = collect_pieces(members, s, vis, nxt, prv)
@@ -172,3 +176,18 @@ def _begin_at(order: np.ndarray, offs: np.ndarray, s: int) -> tuple[np.ndarray, 
         return out, offs, 0
     out = np.concatenate([order[at:b], order[a:at], order[b:]])
     return out, np.concatenate([[0, b - at], offs[1:]]).astype(offs.dtype), 1
+
+
+@numba.njit(cache=True)
+def _blocks(xy, x0, y0, cw, W, H):  # pragma: no cover - numba
+    """Each point's block of ``BLOCK`` x ``BLOCK`` cells (cells of side ``cw`` mm from ``(x0, y0)``, ``W`` x ``H``
+    of them, as :func:`~.points.blue_noise.cell_lists` numbers them), the points per block, and blocks per row."""
+    WB = (W + BLOCK - 1) // BLOCK
+    HB = (H + BLOCK - 1) // BLOCK
+    blk = np.empty(xy.shape[0], np.int64)
+    ucnt = np.zeros(WB * HB, np.int64)
+    for p in range(xy.shape[0]):
+        b = (int((xy[p, 1] - y0) / cw) // BLOCK) * WB + int((xy[p, 0] - x0) / cw) // BLOCK
+        blk[p] = b
+        ucnt[b] += 1
+    return blk, ucnt, WB

@@ -1,0 +1,61 @@
+"""The blue-noise walk's speed-ups keep its answers (issue 26 Build 3, the 2x target): checked against plain code.
+
+Not timed (the times are benchmarks/bench_plan.py's): each fast path is compared with a brute-force reference
+on random states, where a wrong skip or a wrong order would give another answer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polishpath.plan._graphwalk import BLOCK, nearest_unvisited_pt
+from polishpath.plan.bluewalk import _blocks
+from polishpath.plan.points.blue_noise import cell_lists
+
+
+def _reference(h, xy, vis, lab, comp, x0, y0, cw, rmax, deg):
+    """The steering search's rule, by brute force over every point: the nearest non-leaf unvisited point of
+    ``comp`` among the cell rings up to one past the first ring that holds one (rings up to ``rmax``), else the
+    nearest leaf within ``rmax`` rings, else -1."""
+    cx = ((xy[:, 0] - x0) / cw).astype(np.int64)
+    cy = ((xy[:, 1] - y0) / cw).astype(np.int64)
+    hx, hy = int((xy[h, 0] - x0) / cw), int((xy[h, 1] - y0) / cw)
+    ring = np.maximum(np.abs(cx - hx), np.abs(cy - hy))
+    d = (xy[:, 0] - xy[h, 0]) ** 2 + (xy[:, 1] - xy[h, 1]) ** 2
+    ok = (vis == 0) & (lab == comp) & (ring <= rmax)
+    inner = ok & (deg != 1)
+    if inner.any():
+        r0 = ring[inner].min()
+        pool = np.flatnonzero(inner & (ring <= r0 + 1))
+        return int(pool[np.argmin(d[pool])])
+    leaves = np.flatnonzero(ok & (deg == 1))
+    return int(leaves[np.argmin(d[leaves])]) if len(leaves) else -1
+
+
+def test_steering_search_skips_only_empty_blocks():
+    rng = np.random.default_rng(5)
+    n = 6000
+    xy = rng.uniform(0.0, 70.0, (n, 2))
+    cells, cstart, x0, y0, W, H = cell_lists(xy, 1.0)
+    lab = (xy[:, 0] > 60.0).astype(np.int64)  # a second component on one side
+    deg = rng.integers(1, 7, n)
+    indptr = np.concatenate([[0], np.cumsum(deg)]).astype(np.int64)  # only the degrees are read
+    checked = 0
+    for trial in range(300):
+        # visited: all but a few random discs of unvisited points (the walk leaves holes behind it)
+        vis = np.ones(n, np.uint8)
+        for _ in range(rng.integers(0, 4)):
+            c, r = rng.uniform(0, 70, 2), rng.uniform(0.5, 6.0)
+            vis[np.hypot(*(xy - c).T) < r] = 0
+        blk, ucnt, WB = _blocks(xy, x0, y0, 1.0, W, H)
+        # the counts as the walk keeps them: exact or too large (never too small)
+        for b in range(len(ucnt)):
+            ucnt[b] = np.count_nonzero(vis[blk == b] == 0) + (rng.integers(0, 3) if trial % 2 else 0)
+        h = int(rng.integers(n))
+        rmax = int(rng.choice([2, 8, 32, 80]))
+        got = nearest_unvisited_pt(h, xy, vis, lab, np.int64(lab[h]), cells, cstart, x0, y0, 1.0, W, H, rmax,
+                                   indptr, ucnt, WB)
+        assert got == _reference(h, xy, vis, lab, lab[h], x0, y0, 1.0, rmax, deg), trial
+        checked += got >= 0
+    assert checked > 100  # most searches found a point (not a test of -1 only)
+    assert BLOCK > 1
