@@ -59,3 +59,25 @@ def test_steering_search_skips_only_empty_blocks():
         checked += got >= 0
     assert checked > 100  # most searches found a point (not a test of -1 only)
     assert BLOCK > 1
+
+
+def test_components_are_scipys():
+    """The walk's one-pass components (labels, the points by label, offsets) equal scipy's labels and a stable sort."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from polishpath.plan.bluewalk import _components
+
+    rng = np.random.default_rng(2)
+    n = 3000
+    a = rng.integers(0, n, 1800)
+    b = np.clip(a + rng.integers(-40, 40, a.size), 0, n - 1)  # short-range edges: many components
+    g = coo_matrix((np.ones(a.size), (a, b)), shape=(n, n)).tocsr()
+    g = ((g + g.T) > 0).astype(np.int8).tocsr()
+    g.sort_indices()
+    ncomp, lab = connected_components(g, directed=False)
+    got_n, got_lab, order, bounds = _components(g.indptr.astype(np.int64), g.indices.astype(np.int64))
+    assert ncomp > 100 and got_n == ncomp
+    np.testing.assert_array_equal(got_lab, lab)
+    np.testing.assert_array_equal(order, np.argsort(lab, kind="stable"))
+    np.testing.assert_array_equal(bounds, np.searchsorted(lab[order], np.arange(ncomp + 1)))
