@@ -441,12 +441,32 @@ def cell_lists(uv: np.ndarray, cw: float) -> tuple[np.ndarray, np.ndarray, float
     The points of cell ``(cx, cy)`` (corner ``(x0 + cx cw, y0 + cy cw)``) are
     ``cells[cstart[c]:cstart[c + 1]]`` with ``c = cy * W + cx``.
     """
-    x0, y0 = uv.min(axis=0)
-    cx = ((uv[:, 0] - x0) / cw).astype(np.int64)
-    cy = ((uv[:, 1] - y0) / cw).astype(np.int64)
-    W, H = int(cx.max()) + 1, int(cy.max()) + 1
-    cells, cstart = _counting_sort(cy * W + cx, W * H)
-    return cells, cstart, float(x0), float(y0), W, H
+    cells, cstart, x0, y0, W, H = _cell_lists(np.ascontiguousarray(uv, dtype=np.float64), float(cw))
+    return cells, cstart, float(x0), float(y0), int(W), int(H)
+
+
+@numba.njit(cache=True)
+def _cell_lists(uv, cw):  # pragma: no cover - numba
+    # cell_lists in one kernel (the corner, each point's cell, then _counting_sort's order and starts)
+    n = uv.shape[0]
+    x0 = uv[0, 0]
+    y0 = uv[0, 1]
+    for i in range(1, n):
+        x0 = min(x0, uv[i, 0])
+        y0 = min(y0, uv[i, 1])
+    cid = np.empty(n, np.int64)
+    W = 1
+    H = 1
+    for i in range(n):
+        cx = int((uv[i, 0] - x0) / cw)
+        cy = int((uv[i, 1] - y0) / cw)
+        W = max(W, cx + 1)
+        H = max(H, cy + 1)
+        cid[i] = cx
+    for i in range(n):
+        cid[i] += int((uv[i, 1] - y0) / cw) * W
+    cells, cstart = _counting_sort(cid, W * H)
+    return cells, cstart, x0, y0, W, H
 
 
 @numba.njit(cache=True)
@@ -501,21 +521,33 @@ def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, n
     # cell areas; only those up to EDGE_FACTOR x spacing join the walk's graph
     ea, eb, tris = _local_delaunay(uv, cells, cstart, x0, y0, float(spacing), W, H, float(cw_order), W_order,
                                    TRIANGLE_EDGE_FACTOR * spacing, EMPTY_CIRCLE_FACTOR * spacing, 1e-9 * spacing)
-    near = _near_boundary(poly, uv, TRIANGLE_EDGE_FACTOR * spacing)
-    check = near[ea] | near[eb]
+    # the exact inside test for the edges that may leave the region: an edge (at most TRIANGLE_EDGE_FACTOR x
+    # spacing long, both ends inside) that crosses the boundary has an end within half its length of it
+    near = _near_boundary(poly, uv, 0.5 * TRIANGLE_EDGE_FACTOR * spacing)
+    k = _edges_at(ea, eb, near)
     keep = np.ones(len(ea), dtype=np.bool_)
-    if check.any():
-        k = np.flatnonzero(check)
+    if len(k):
         lines = shapely.linestrings(np.stack([uv[ea[k]], uv[eb[k]]], axis=1))
         keep[k] = shapely.covers(poly, lines)
     # the triangles whose three edges are inside the region; the walk's graph: the inside edges up to lmax
     ip_all, ix_all = _csr(ea, eb, keep, n)
-    tri_keep = _triangles_inside(tris, ip_all, ix_all)
+    tris = _triangles_inside(tris, ip_all, ix_all)
     # a point left with one neighbour (at the rim, or a sharp corner) gets its inside Delaunay edges up to
     # LEAF_EDGE_FACTOR x spacing: a leaf can only end a path
     short = _walk_edges(uv, ea, eb, keep, lmax, LEAF_EDGE_FACTOR * spacing)
     indptr, indices = _csr(ea, eb, short, n)
-    return indptr, indices, tris[tri_keep]
+    return indptr, indices, tris
+
+
+@numba.njit(cache=True)
+def _edges_at(ea, eb, near):  # pragma: no cover - numba
+    # the numbers of the edges (ea[i], eb[i]) with an end where near is True (np.flatnonzero(near[ea] | near[eb]))
+    out = np.empty(ea.shape[0], np.int64)
+    m = 0
+    for i in range(ea.shape[0]):
+        out[m] = i
+        m += near[ea[i]] | near[eb[i]]
+    return out[:m].copy()
 
 
 @numba.njit(cache=True)
@@ -570,7 +602,7 @@ def _csr(ea, eb, keep, n):  # pragma: no cover - numba
 
 @numba.njit(cache=True)
 def _triangles_inside(tris, indptr, indices):  # pragma: no cover - numba
-    # (T,) bool: the triangles whose three edges are in the graph (indptr, indices)
+    # the triangles (rows of tris, in order) whose three edges are in the graph (indptr, indices)
     out = np.zeros(tris.shape[0], np.bool_)
     for t in range(tris.shape[0]):
         ok = True
@@ -586,7 +618,13 @@ def _triangles_inside(tris, indptr, indices):  # pragma: no cover - numba
                 ok = False
                 break
         out[t] = ok
-    return out
+    kept = np.empty((np.count_nonzero(out), 3), np.int64)
+    m = 0
+    for t in range(tris.shape[0]):
+        if out[t]:
+            kept[m] = tris[t]
+            m += 1
+    return kept
 
 
 @numba.njit(cache=True)
