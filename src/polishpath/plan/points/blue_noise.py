@@ -484,10 +484,9 @@ def _local_delaunay(xy, cells, cstart, x0, y0, cw, W, H, cw_order, W_order, lmax
             xhi = -1
             for j in range(m):
                 if j != i:
-                    a = -2.0 * (nx * lx[j] + ny * ly[j])
-                    if xlo < 0 and a > 0 and va[j] == lo:
+                    if xlo < 0 and va[j] == lo and -2.0 * (nx * lx[j] + ny * ly[j]) > 0:
                         xlo = loc[j]
-                    if xhi < 0 and a < 0 and va[j] == hi:
+                    if xhi < 0 and va[j] == hi and -2.0 * (nx * lx[j] + ny * ly[j]) < 0:
                         xhi = loc[j]
             if nk < 64:
                 key = (int((xy[q, 1] - y0) / cw_order) * W_order + int((xy[q, 0] - x0) / cw_order)) * n + q
