@@ -193,29 +193,40 @@ def _blocks(xy, x0, y0, cw, W, H):  # pragma: no cover - numba
 @numba.njit(cache=True)
 def _components(indptr, indices):  # pragma: no cover - numba
     """Connected components of the symmetric CSR graph: their number, each point's label (components numbered in
-    the order of their smallest point), the points by label (ascending within each) and each label's first
-    position in that order (ncomp + 1 offsets). Written by hand: scipy's ``connected_components`` and the sort
-    after it took 0.25 s of numpy and scipy at 10^6 points, this takes one pass."""
+    the order of their smallest point, as scipy's ``connected_components`` numbers them), the points by label
+    (ascending within each) and each label's first position in that order (ncomp + 1 offsets). Written by hand:
+    scipy's ``connected_components`` and the sort after it took 0.25 s at 10^6 points; this is a union-find over
+    the edges in the points' order (neighbours are near in number, so it stays in cache)."""
     n = indptr.shape[0] - 1
-    lab = np.full(n, -1, np.int64)
-    stack = np.empty(n, np.int64)
+    parent = np.arange(n)
+    for v in range(n):
+        for e in range(indptr[v], indptr[v + 1]):
+            w = indices[e]
+            if w <= v:
+                continue
+            a = v
+            while parent[a] != a:  # path halving
+                parent[a] = parent[parent[a]]
+                a = parent[a]
+            b = w
+            while parent[b] != b:
+                parent[b] = parent[parent[b]]
+                b = parent[b]
+            if a < b:  # the root is the component's smallest point
+                parent[b] = a
+            elif b < a:
+                parent[a] = b
+    lab = np.empty(n, np.int64)
     ncomp = 0
-    for s in range(n):
-        if lab[s] >= 0:
-            continue
-        lab[s] = ncomp
-        stack[0] = s
-        top = 1
-        while top > 0:
-            top -= 1
-            v = stack[top]
-            for e in range(indptr[v], indptr[v + 1]):
-                w = indices[e]
-                if lab[w] < 0:
-                    lab[w] = ncomp
-                    stack[top] = w
-                    top += 1
-        ncomp += 1
+    for v in range(n):
+        a = v
+        while parent[a] != a:
+            a = parent[a]
+        if a == v:
+            lab[v] = ncomp
+            ncomp += 1
+        else:
+            lab[v] = lab[a]
     bounds = np.zeros(ncomp + 1, np.int64)
     for v in range(n):
         bounds[lab[v] + 1] += 1
