@@ -133,11 +133,9 @@ NBR_DI, NBR_DJ = _neighbour_cells()
 
 
 @numba.njit(cache=True)
-def _free(cx, cy, grid, gw, gh, cell, xs, ys, r2):  # pragma: no cover - numba
-    # whether no point of the sampler's grid (cells of side cell, gw x gh, a point's number or -1) is closer
-    # than sqrt(r2) to (cx, cy): the 21 cells that can hold one, nearest first (a rejection ends early)
-    gi = int(cx / cell)
-    gj = int(cy / cell)
+def _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):  # pragma: no cover - numba
+    # whether no point of the sampler's grid (gw x gh cells, a point's number or -1) is closer than sqrt(r2) to
+    # (cx, cy) in cell (gi, gj): the 21 cells that can hold one, nearest first (a rejection ends early)
     for o in range(NBR_DI.shape[0]):
         ii = gi + NBR_DI[o]
         jj = gj + NBR_DJ[o]
@@ -175,6 +173,8 @@ def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
     gw = int(np.ceil(w / cell)) + 1
     gh = int(np.ceil(hgt / cell)) + 1
     grid = np.full(gw * gh, -1, np.int64)
+    inv_cell = 1.0 / cell  # a candidate's cells by multiplication (a division per candidate and axis cost 0.1 s)
+    inv_mc = 1.0 / mc
     cap = int(1.2 * w * hgt / (r * r)) + 16  # the densest packing at distance r holds 1.155 / r^2
     xs = np.empty(cap)
     ys = np.empty(cap)
@@ -197,11 +197,15 @@ def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
                 for _ in range(32):
                     cx = ((mcell % mw) + np.random.random()) * mc
                     cy = ((mcell // mw) + np.random.random()) * mc
-                    if cx >= w or cy >= hgt or not _free(cx, cy, grid, gw, gh, cell, xs, ys, r2):
+                    if cx >= w or cy >= hgt:
+                        continue
+                    gi = int(cx * inv_cell)
+                    gj = int(cy * inv_cell)
+                    if not _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):
                         continue
                     xs[n] = cx
                     ys[n] = cy
-                    grid[int(cy / cell) * gw + int(cx / cell)] = n
+                    grid[gj * gw + gi] = n
                     active[0] = n
                     na = 1
                     n += 1
@@ -223,13 +227,14 @@ def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
             cy = py + s0 * ck[t] + c0 * sk[t]
             if cx < 0 or cy < 0 or cx >= w or cy >= hgt:
                 continue
-            mcell = int(cy / mc) * mw + int(cx / mc)
-            if mask[mcell] == 0:
+            if mask[int(cy * inv_mc) * mw + int(cx * inv_mc)] == 0:
                 continue
-            if _free(cx, cy, grid, gw, gh, cell, xs, ys, r2):
+            gi = int(cx * inv_cell)
+            gj = int(cy * inv_cell)
+            if _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):
                 xs[n] = cx
                 ys[n] = cy
-                grid[int(cy / cell) * gw + int(cx / cell)] = n
+                grid[gj * gw + gi] = n
                 active[na] = n
                 na += 1
                 n += 1
