@@ -8,12 +8,9 @@ instead of uniformly in the annulus ``[r, 2 r]``): about 7x fewer rejected
 candidates, a denser, near-maximal set (measured 0.81 / r^2 points per mm^2 on a
 large square), no two points closer than ``r``. The radius is chosen so that the
 density is that of the square grid of the same spacing ``h`` (1 / h^2):
-``r = sqrt(DENSITY_R2) h`` = 0.90 h. The points are sampled over the squares
-(``SAMPLING_CELL`` spacings) that hold a point of the region and the squares around
-them, not over its whole bounding box (a disc: 1.03x the points kept instead of
-1.27x), and the ones inside the region (shrunk by the margin) are kept, so the
-density is the same up to the boundary; a part of the region the front cannot reach
-gets a front of its own. They are then numbered by square cell of one
+``r = sqrt(DENSITY_R2) h`` = 0.90 h. The points are sampled over the region's
+bounding box and the ones inside the region (shrunk by the margin) are kept, so
+the density is the same up to the boundary; they are then numbered by square cell of one
 spacing, row by row, so that neighbours sit near each other in memory (the graph's
 construction and the walk read them about 1.5x faster). Written by hand (numba) because
 ``scipy.stats.qmc.PoissonDisk`` takes about 1 ms per point, far too slow for
@@ -65,9 +62,6 @@ EDGE_FACTOR = 1.7
 #: a path can only end there, so two of them at the rim cost a tool lift): its inside Delaunay edges up to
 #: this multiple of h join the graph too (still under the issue's 2 h). The longest step of the walk.
 LEAF_EDGE_FACTOR = 1.9
-#: Side of the cells (spacings) over which the sampler keeps to the region: it samples the cells that hold a
-#: point of the region and the cells around them, not the whole bounding box (a disc: 0.82 of the box's points).
-SAMPLING_CELL = 4.0
 #: The sampler's largest set (points); beyond it the region is refused with a message.
 MAX_POINTS = 60_000_000
 
@@ -133,85 +127,30 @@ NBR_DI, NBR_DJ = _neighbour_cells()
 
 
 @numba.njit(cache=True)
-def _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):  # pragma: no cover - numba
-    # whether no point of the sampler's grid (gw x gh cells, a point's number or -1) is closer than sqrt(r2) to
-    # (cx, cy) in cell (gi, gj): the 21 cells that can hold one, nearest first (a rejection ends early)
-    for o in range(NBR_DI.shape[0]):
-        ii = gi + NBR_DI[o]
-        jj = gj + NBR_DJ[o]
-        if ii < 0 or jj < 0 or ii >= gw or jj >= gh:
-            continue
-        q = grid[jj * gw + ii]
-        if q >= 0:
-            dx = xs[q] - cx
-            dy = ys[q] - cy
-            if dx * dx + dy * dy < r2:
-                return False
-    return True
-
-
-@numba.njit(cache=True)
-def _holds_point(mcell, mc, mw, grid, gw, gh, cell):  # pragma: no cover - numba
-    # whether the sampler's grid (cells of side cell) holds a point in the square mcell (side mc, mw a row)
-    i0 = int((mcell % mw) * mc / cell)
-    j0 = int((mcell // mw) * mc / cell)
-    for jj in range(max(j0, 0), min(int(((mcell // mw) + 1) * mc / cell) + 1, gh)):
-        for ii in range(max(i0, 0), min(int(((mcell % mw) + 1) * mc / cell) + 1, gw)):
-            q = grid[jj * gw + ii]
-            if q >= 0:
-                return True
-    return False
-
-
-@numba.njit(cache=True)
-def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
-    # Bridson's algorithm with Roberts' candidates (see the module docstring), on the cells of [0, w) x [0, hgt)
-    # (squares of side mc, mw a row) where mask is 1. A front that dies leaves the cells it cannot reach (another
-    # part of the region) empty: a point drawn in the next empty cell starts a new front there.
+def _poisson_disk(w, hgt, r, k, seed):  # pragma: no cover - numba
+    # Bridson's algorithm with Roberts' candidates (see the module docstring), on [0, w) x [0, hgt).
     np.random.seed(seed)
     cell = r / np.sqrt(2.0)
     gw = int(np.ceil(w / cell)) + 1
     gh = int(np.ceil(hgt / cell)) + 1
     grid = np.full(gw * gh, -1, np.int64)
-    inv_cell = 1.0 / cell  # a candidate's cells by multiplication (a division per candidate and axis cost 0.1 s)
-    inv_mc = 1.0 / mc
     cap = int(1.2 * w * hgt / (r * r)) + 16  # the densest packing at distance r holds 1.155 / r^2
     xs = np.empty(cap)
     ys = np.empty(cap)
     active = np.empty(cap, np.int64)
-    na = 0
-    n = 0
+    x = np.random.random() * w
+    y = np.random.random() * hgt
+    xs[0] = x
+    ys[0] = y
+    grid[int(y / cell) * gw + int(x / cell)] = 0
+    active[0] = 0
+    na = 1
+    n = 1
     r2 = r * r
     rho = r * (1.0 + 1e-7)
     ck = np.cos(2.0 * np.pi * np.arange(k) / k)
     sk = np.sin(2.0 * np.pi * np.arange(k) / k)
-    seed_cell = 0  # the next masked cell to look at for a new front
-    while True:
-        if na == 0:
-            # a new front: a random point of the next masked cell that holds none (tried a few times)
-            while seed_cell < mask.shape[0] and na == 0:
-                mcell = seed_cell
-                seed_cell += 1
-                if mask[mcell] == 0 or _holds_point(mcell, mc, mw, grid, gw, gh, cell):
-                    continue
-                for _ in range(32):
-                    cx = ((mcell % mw) + np.random.random()) * mc
-                    cy = ((mcell // mw) + np.random.random()) * mc
-                    if cx >= w or cy >= hgt:
-                        continue
-                    gi = int(cx * inv_cell)
-                    gj = int(cy * inv_cell)
-                    if not _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):
-                        continue
-                    xs[n] = cx
-                    ys[n] = cy
-                    grid[gj * gw + gi] = n
-                    active[0] = n
-                    na = 1
-                    n += 1
-                    break
-            if na == 0:
-                break
+    while na > 0:
         # a random one of the most recent active points: the front stays in cache (a random one of all
         # of them: about 2x slower at 10^6 points, no difference in the points' statistics measured)
         ia = na - 1 - np.random.randint(min(na, ACTIVE_WINDOW))
@@ -227,11 +166,23 @@ def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
             cy = py + s0 * ck[t] + c0 * sk[t]
             if cx < 0 or cy < 0 or cx >= w or cy >= hgt:
                 continue
-            if mask[int(cy * inv_mc) * mw + int(cx * inv_mc)] == 0:
-                continue
-            gi = int(cx * inv_cell)
-            gj = int(cy * inv_cell)
-            if _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):
+            gi = int(cx / cell)
+            gj = int(cy / cell)
+            bad = False
+            # the 21 cells that can hold a point closer than r, nearest first: a rejection ends early
+            for o in range(NBR_DI.shape[0]):
+                ii = gi + NBR_DI[o]
+                jj = gj + NBR_DJ[o]
+                if ii < 0 or jj < 0 or ii >= gw or jj >= gh:
+                    continue
+                q = grid[jj * gw + ii]
+                if q >= 0:
+                    dx = xs[q] - cx
+                    dy = ys[q] - cy
+                    if dx * dx + dy * dy < r2:
+                        bad = True
+                        break
+            if not bad:
                 xs[n] = cx
                 ys[n] = cy
                 grid[gj * gw + gi] = n
@@ -289,16 +240,11 @@ def blue_noise_points(region: Region, spacing: float, *, seed: int, margin: floa
             "Use a larger spacing, or --dwell-points grid.")
     # numba's generator takes a 32-bit seed: one drawn from the seed's sequence
     s32 = int(np.random.SeedSequence(seed).generate_state(1, dtype=np.uint32)[0])
-    shapely.prepare(poly)
-    mc = SAMPLING_CELL * spacing
-    mask, inner, mw = _sampling_cells(poly, x0, y0, w, hgt, mc)
-    xs, ys = _poisson_disk(w, hgt, r, SAMPLER_K, s32, mask, mc, mw)
-    # inside: the points of the cells wholly inside, and those of the others that shapely finds inside
-    inside = inner[(ys / mc).astype(np.int64) * mw + (xs / mc).astype(np.int64)]
+    xs, ys = _poisson_disk(w, hgt, r, SAMPLER_K, s32)
     xs += x0
     ys += y0
-    rest = np.flatnonzero(~inside)
-    inside[rest] = shapely.contains_xy(poly, xs[rest], ys[rest])
+    shapely.prepare(poly)
+    inside = shapely.contains_xy(poly, xs, ys)
     uv = np.stack([xs[inside], ys[inside]], axis=1)
     if len(uv) < 2:
         rx0, ry0, rx1, ry1 = region.bounds
@@ -313,51 +259,6 @@ def blue_noise_points(region: Region, spacing: float, *, seed: int, margin: floa
     area = cell_areas(uv, triangles, spacing)
     return BlueNoisePoints(uv=uv, spacing=spacing, min_distance=r, margin=margin, indptr=indptr, indices=indices,
                            cell_area=area, seed=seed, polygon=poly)
-
-
-def _grow(a: np.ndarray) -> np.ndarray:
-    """The (H, W) bool raster ``a`` grown by one cell (its 8 neighbours)."""
-    g = a.copy()
-    g[1:, :] |= a[:-1, :]
-    g[:-1, :] |= a[1:, :]
-    g[:, 1:] |= a[:, :-1]
-    g[:, :-1] |= a[:, 1:]
-    g[1:, 1:] |= a[:-1, :-1]
-    g[:-1, :-1] |= a[1:, 1:]
-    g[1:, :-1] |= a[:-1, 1:]
-    g[:-1, 1:] |= a[1:, :-1]
-    return g
-
-
-def _sampling_cells(poly, x0: float, y0: float, w: float, hgt: float, mc: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """The sampler's cells over the bounding box ``(x0, y0) + [0, w) x [0, hgt)``, squares of side ``mc`` mm.
-
-    Returns ``mask`` (uint8, a row of ``mw`` cells after another: 1 where the sampler places points: every cell
-    that holds a point of the polygon and the cells around them, so that the points inside see the same
-    sampling up to the boundary as over the whole box), ``inner`` (bool, the cells wholly inside the polygon:
-    their points need no exact test) and ``mw``.
-    """
-    mw = int(np.ceil(w / mc)) + 1
-    mh = int(np.ceil(hgt / mc)) + 1
-    rings = [np.asarray(g.coords) for p in getattr(poly, "geoms", [poly]) for g in [p.exterior, *p.interiors]]
-    bnd = np.zeros((mh, mw), dtype=bool)
-    for ring in rings:
-        a, b = ring[:-1], ring[1:]
-        nsub = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / (0.25 * mc)).astype(np.int64))
-        rep = np.repeat(np.arange(len(a)), nsub + 1)
-        t = np.arange(len(rep)) - np.repeat(np.cumsum(nsub + 1) - (nsub + 1), nsub + 1)
-        pts = a[rep] + (t / np.repeat(nsub, nsub + 1))[:, None] * (b - a)[rep]
-        ci = np.clip(np.floor((pts[:, 0] - x0) / mc).astype(np.int64), 0, mw - 1)
-        cj = np.clip(np.floor((pts[:, 1] - y0) / mc).astype(np.int64), 0, mh - 1)
-        bnd[cj, ci] = True
-    gx, gy = np.meshgrid(x0 + (np.arange(mw) + 0.5) * mc, y0 + (np.arange(mh) + 0.5) * mc)
-    centre_in = shapely.contains_xy(poly, gx, gy)
-    # a ring that only clips a cell's corner may leave no sample in it, but leaves one in a cell next to it:
-    # a cell is wholly inside when its centre is and no cell around it holds a sample of the boundary, and the
-    # cells around those with a sample or an inside centre hold every point of the polygon
-    inner = centre_in & ~_grow(bnd)
-    mask = _grow(centre_in | bnd)
-    return mask.ravel().astype(np.uint8), inner.ravel(), mw
 
 
 def _near_boundary(poly, uv: np.ndarray, reach: float) -> np.ndarray:
