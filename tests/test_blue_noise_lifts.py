@@ -101,3 +101,17 @@ def test_the_points_of_one_neighbour_end_the_path():
     path = plan(region, 1.0, seed=3, dwell_points="blue-noise")
     assert len(path.pieces) - 1 == 1
     assert set(path.ij[[0, -1], 0].tolist()) == set(leaves.tolist())
+
+
+def test_an_escape_that_ran_out_is_followed_by_another():
+    # with no give-back (backtrack 0), one blind turnaround and short steering, the walk lives on its escapes; an
+    # escape whose rotations ran out before its target used to end the walk (a 10^7 disc of another set stopped
+    # at 61 % and left 9 extra pieces): now another escape follows, while escapes are left
+    from polishpath.plan.bluewalk import graph_walk_order
+
+    pts = blue_noise_points(_BENCH.star_region(2e4), 1.0, seed=1)
+    order, pieces, st = graph_walk_order(pts, seed=1, start=0, steer=2, max_blind=1, backtrack=0)
+    assert np.array_equal(np.sort(order), np.arange(pts.n))  # each point once
+    assert st["walk_fraction"] > 0.5  # 0.19 when the first spent escape ended the walk
+    assert st["escapes"] > 60  # 29 then
+    assert count_crossings(pts.uv[order], pieces) == 0

@@ -381,8 +381,10 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
                 stats[ST_DEL] += backtrack
                 continue
             # escape: steered rotations toward an unvisited point up to 8 x steer cells away, a bounded
-            # number of times
-            if escapes < max_escapes and blind_limit == max_blind:
+            # number of times; an escape whose rotations ran out (the target too far round the visited area,
+            # with no give-back left) is followed by another, as the first was (the walk used to end there:
+            # a 10^7 disc stopped at 61 % and left 9 extra pieces)
+            if escapes < max_escapes and (blind_limit == max_blind or blind >= blind_limit):
                 t2 = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, 8 * steer, indptr, ucnt, WB)
                 if t2 >= 0:
                     escapes += 1
@@ -390,6 +392,7 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
                     tgt = t2
                     radius = 8 * steer
                     blind_limit = max_blind + 4 * 8 * steer
+                    blind = min(blind, max_blind)
                     continue
             break
         stats[ST_REV] += k - 1 - t
