@@ -81,3 +81,30 @@ def test_components_are_scipys():
     np.testing.assert_array_equal(got_lab, lab)
     np.testing.assert_array_equal(order, np.argsort(lab, kind="stable"))
     np.testing.assert_array_equal(bounds, np.searchsorted(lab[order], np.arange(ncomp + 1)))
+
+
+def test_the_points_inside_by_squares_are_shapelys():
+    """The sampled points inside the region, found square by square (shapely only near the boundary), are exactly
+    shapely's: a star, a ring, two parts, a hole smaller than a square, and points on the squares' corners."""
+    import shapely
+
+    from polishpath.plan.points.blue_noise import _inside
+
+    t = np.linspace(0, 2 * np.pi, 10, endpoint=False) + np.pi / 2
+    rad = np.where(np.arange(10) % 2 == 0, 40.0, 18.0)
+    star = shapely.Polygon(np.c_[rad * np.cos(t), rad * np.sin(t)])
+    disc = shapely.Point(0, 0).buffer(30.0, 64)
+    polys = [star, disc.difference(shapely.Point(0, 0).buffer(12.0, 64)),
+             shapely.union(shapely.Point(-40, 0).buffer(10.0), shapely.Point(40, 0).buffer(10.0)),
+             disc.difference(shapely.box(5.2, 5.2, 5.9, 5.9))]  # a hole inside one square of 4 mm
+    rng = np.random.default_rng(3)
+    for poly in polys:
+        shapely.prepare(poly)
+        x0, y0, x1, y1 = poly.bounds
+        xs = np.concatenate([rng.uniform(x0, x1, 40000), x0 + 4.0 * rng.integers(0, int((x1 - x0) / 4), 500)])
+        ys = np.concatenate([rng.uniform(y0, y1, 40000), y0 + 4.0 * rng.integers(0, int((y1 - y0) / 4), 500)])
+        xs = np.concatenate([xs, rng.uniform(5.2, 5.9, 300)])
+        ys = np.concatenate([ys, rng.uniform(5.2, 5.9, 300)])
+        got = _inside(poly, xs, ys, 4.0)
+        np.testing.assert_array_equal(got, shapely.contains_xy(poly, xs, ys))
+        assert got.any() and not got.all()

@@ -62,6 +62,8 @@ EDGE_FACTOR = 1.7
 #: a path can only end there, so two of them at the rim cost a tool lift): its inside Delaunay edges up to
 #: this multiple of h join the graph too (still under the issue's 2 h). The longest step of the walk.
 LEAF_EDGE_FACTOR = 1.9
+#: Side of the squares (spacings) by which the sampled points are found inside the region (``_inside``).
+SQUARE_CELL = 4.0
 #: The sampler's largest set (points); beyond it the region is refused with a message.
 MAX_POINTS = 60_000_000
 
@@ -244,7 +246,7 @@ def blue_noise_points(region: Region, spacing: float, *, seed: int, margin: floa
     xs += x0
     ys += y0
     shapely.prepare(poly)
-    inside = shapely.contains_xy(poly, xs, ys)
+    inside = _inside(poly, xs, ys, SQUARE_CELL * spacing)
     uv = np.stack([xs[inside], ys[inside]], axis=1)
     if len(uv) < 2:
         rx0, ry0, rx1, ry1 = region.bounds
@@ -259,6 +261,73 @@ def blue_noise_points(region: Region, spacing: float, *, seed: int, margin: floa
     area = cell_areas(uv, triangles, spacing)
     return BlueNoisePoints(uv=uv, spacing=spacing, min_distance=r, margin=margin, indptr=indptr, indices=indices,
                            cell_area=area, seed=seed, polygon=poly)
+
+
+def _grow(a: np.ndarray) -> np.ndarray:
+    """The (H, W) bool raster ``a`` grown by one cell (its 8 neighbours)."""
+    g = a.copy()
+    g[1:, :] |= a[:-1, :]
+    g[:-1, :] |= a[1:, :]
+    g[:, 1:] |= a[:, :-1]
+    g[:, :-1] |= a[:, 1:]
+    g[1:, 1:] |= a[:-1, :-1]
+    g[:-1, :-1] |= a[1:, 1:]
+    g[1:, :-1] |= a[:-1, 1:]
+    g[:-1, 1:] |= a[1:, :-1]
+    return g
+
+
+def _inside(poly, xs: np.ndarray, ys: np.ndarray, mc: float) -> np.ndarray:
+    """(n,) bool: the points ``(xs, ys)`` (mm) inside the prepared polygon, as ``shapely.contains_xy``.
+
+    The polygon's bounding box in squares of side ``mc`` mm: a square whose centre is inside (outside) and that no
+    sample of the boundary (every ``mc / 4``) lies in or next to is wholly inside (outside): its points are
+    decided without shapely (a ring that clips a square's corner leaves a sample in a square next to it, and a
+    ring inside a square leaves its vertices there). shapely tests the points of the other squares only: the
+    same answer, 0.08 -> 0.01 s for the 1.27 M points of a 10^6-point disc's box.
+    """
+    x0, y0, x1, y1 = poly.bounds
+    mw = int(np.ceil((x1 - x0) / mc)) + 1
+    mh = int(np.ceil((y1 - y0) / mc)) + 1
+    bnd = np.zeros((mh, mw), dtype=bool)
+    for ring in (np.asarray(g.coords) for p in getattr(poly, "geoms", [poly]) for g in [p.exterior, *p.interiors]):
+        a, b = ring[:-1], ring[1:]
+        nsub = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / (0.25 * mc)).astype(np.int64))
+        rep = np.repeat(np.arange(len(a)), nsub + 1)
+        t = np.arange(len(rep)) - np.repeat(np.cumsum(nsub + 1) - (nsub + 1), nsub + 1)
+        pts = a[rep] + (t / np.repeat(nsub, nsub + 1))[:, None] * (b - a)[rep]
+        ci = np.clip(np.floor((pts[:, 0] - x0) / mc).astype(np.int64), 0, mw - 1)
+        cj = np.clip(np.floor((pts[:, 1] - y0) / mc).astype(np.int64), 0, mh - 1)
+        bnd[cj, ci] = True
+    gx, gy = np.meshgrid(x0 + (np.arange(mw) + 0.5) * mc, y0 + (np.arange(mh) + 0.5) * mc)
+    centre_in = shapely.contains_xy(poly, gx, gy)
+    clear = ~_grow(bnd)
+    state = np.where(clear & centre_in, 1, np.where(clear, 0, 2)).astype(np.int8).ravel()  # in, out, test
+    return _classify(xs, ys, x0, y0, mc, mw, mh, state, poly)
+
+
+def _classify(xs, ys, x0, y0, mc, mw, mh, state, poly) -> np.ndarray:
+    """The points' answers from their squares' ``state`` (1 in, 0 out, 2 shapely's test)."""
+    inside, test = _square_states(xs, ys, float(x0), float(y0), float(mc), mw, mh, state)
+    inside[test] = shapely.contains_xy(poly, xs[test], ys[test])
+    return inside
+
+
+@numba.njit(cache=True)
+def _square_states(xs, ys, x0, y0, mc, mw, mh, state):  # pragma: no cover - numba
+    # each point's square's state: inside (1) as a bool, and the numbers of the points to test (state 2)
+    n = xs.shape[0]
+    inside = np.zeros(n, np.bool_)
+    test = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        ci = min(max(int(np.floor((xs[i] - x0) / mc)), 0), mw - 1)
+        cj = min(max(int(np.floor((ys[i] - y0) / mc)), 0), mh - 1)
+        st = state[cj * mw + ci]
+        inside[i] = st == 1
+        test[m] = i
+        m += st == 2
+    return inside, test[:m]
 
 
 def _near_boundary(poly, uv: np.ndarray, reach: float) -> np.ndarray:
