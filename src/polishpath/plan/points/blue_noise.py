@@ -598,8 +598,7 @@ def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, n
         lines = shapely.linestrings(np.stack([uv[ea[k]], uv[eb[k]]], axis=1))
         keep[k] = shapely.covers(poly, lines)
     # the triangles whose three edges are inside the region; the walk's graph: the inside edges up to lmax
-    ip_all, ix_all = _csr(ea, eb, keep, n)
-    tris = _triangles_inside(tris, ip_all, ix_all)
+    tris = _triangles_inside(tris, ea, eb, keep, n)
     # a point left with one neighbour (at the rim, or a sharp corner) gets its inside Delaunay edges up to
     # LEAF_EDGE_FACTOR x spacing: a leaf can only end a path
     short = _walk_edges(uv, ea, eb, keep, lmax, LEAF_EDGE_FACTOR * spacing)
@@ -669,19 +668,25 @@ def _csr(ea, eb, keep, n):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True)
-def _triangles_inside(tris, indptr, indices):  # pragma: no cover - numba
-    # the triangles (rows of tris, in order) whose three edges are in the graph (indptr, indices); each row is
-    # read whole (a few entries) rather than up to the match: fewer mispredicted branches
+def _triangles_inside(tris, ea, eb, keep, n):  # pragma: no cover - numba
+    # the triangles (rows (a < b < c) of tris, in order) whose three edges are kept: the edges (ea[i] < eb[i]) come
+    # grouped by their first end in ascending order (as _local_delaunay writes them), so each edge is looked for
+    # among the few of its first end, read whole (fewer mispredicted branches than stopping at the match)
+    estart = np.zeros(n + 1, np.int64)
+    for i in range(ea.shape[0]):
+        estart[ea[i] + 1] += 1
+    for p in range(n):
+        estart[p + 1] += estart[p]
     out = np.empty_like(tris)
     m = 0
     for t in range(tris.shape[0]):
         ok = True
         for e in range(3):
-            a = tris[t, e]
-            b = tris[t, (e + 1) % 3]
+            a = tris[t, 0] if e < 2 else tris[t, 1]
+            b = tris[t, 1] if e == 0 else tris[t, 2]
             found = False
-            for j in range(indptr[a], indptr[a + 1]):
-                found |= indices[j] == b
+            for j in range(estart[a], estart[a + 1]):
+                found |= (eb[j] == b) & keep[j]
             ok &= found
         out[m] = tris[t]
         m += ok
