@@ -19,7 +19,7 @@ a quiet machine).
 Figures (2026-12-02, 2-core machine shared by three engineers, load 1.3-1.9, CPU s; RSS peak):
 before the speed commits (cd8487a) 10^5 grid 0.13 / blue-noise 0.48 (3.7x), 10^6 1.58 / 5.32 s
 (3.4x; 4.2x at load 5 earlier), 571 MB; after them 10^5 0.13 / 0.35 (2.7x), 10^6 1.54 / 3.60 s
-(2.3x; 2.1-2.4x over several runs), 537 MB against the grid walk's 342 MB; 10^7 (under the
+(2.3x; 2.07-2.4x over several runs), 473-537 MB against the grid walk's 342 MB; 10^7 (under the
 big-memory lock) grid 19.4 s / 1.73 GB, blue-noise 46.1 s / 3.25 GB (2.4x; 73.9 s, 3.7x before),
 one piece, every guarantee held. The 2x target is still missed: docs/planning.md ("Speed") says
 where the time goes and what was tried.
