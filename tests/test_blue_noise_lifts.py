@@ -115,3 +115,13 @@ def test_an_escape_that_ran_out_is_followed_by_another():
     assert st["walk_fraction"] > 0.5  # 0.19 when the first spent escape ended the walk
     assert st["escapes"] > 60  # 29 then
     assert count_crossings(pts.uv[order], pieces) == 0
+
+
+def test_a_walk_with_nothing_left_near_steers_to_the_nearest_point_anywhere():
+    # star 5e4, seed 4: the walk used to end at an inner notch with nothing unvisited within its escapes' reach (8 x
+    # steer cells) while points across the notch were left; the end-game could not place them all: 3 pieces. The
+    # nearest unvisited point anywhere is now the next escape's target: one piece (the grid walk: 2 here)
+    bn = plan(star_of_area(5e4), 1.0, seed=4, dwell_points="blue-noise")
+    assert len(bn.pieces) - 1 == 1 and bn.stats["extra_pieces"] == 0
+    assert np.array_equal(np.sort(bn.ij[:, 0]), np.arange(bn.n_points)) and len(bn.unreached) == 0
+    assert count_crossings(bn.uv, bn.pieces) == 0

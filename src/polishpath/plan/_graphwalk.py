@@ -386,11 +386,17 @@ def graph_walk(start, walk_id, n_comp, indptr, indices, vis, wid, T, stack, P, m
             # a 10^7 disc stopped at 61 % and left 9 extra pieces)
             if escapes < max_escapes and (blind_limit == max_blind or blind >= blind_limit):
                 t2 = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, 8 * steer, indptr, ucnt, WB)
+                radius = 8 * steer
+                if t2 < 0:
+                    # nothing left near: the nearest unvisited point anywhere (the blocks make it cheap), as the
+                    # next target, rather than ending the walk and leaving that part to the end-game
+                    radius = W + H
+                    t2 = nearest_unvisited_pt(h, xy, vis, lab, comp, cells, cstart, x0, y0, cw, W, H, radius, indptr, ucnt,
+                                              WB)
                 if t2 >= 0:
                     escapes += 1
                     stats[ST_ESCAPE] += 1
                     tgt = t2
-                    radius = 8 * steer
                     blind_limit = max_blind + 4 * 8 * steer
                     blind = min(blind, max_blind)
                     continue
