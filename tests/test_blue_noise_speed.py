@@ -7,6 +7,7 @@ on random states, where a wrong skip or a wrong order would give another answer.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from polishpath.plan._graphwalk import BLOCK, nearest_unvisited_pt
 from polishpath.plan.bluewalk import _blocks
@@ -108,3 +109,47 @@ def test_the_points_inside_by_squares_are_shapelys():
         got = _inside(poly, xs, ys, 4.0)
         np.testing.assert_array_equal(got, shapely.contains_xy(poly, xs, ys))
         assert got.any() and not got.all()
+
+
+def _disc(r, n, c):
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.c_[c[0] + r * np.cos(t), c[1] + r * np.sin(t)]
+
+
+def test_the_sampler_keeps_to_the_region_and_reaches_every_part_of_it():
+    """The sampler places points only over the cells around the region (not its whole bounding box), so each part
+    of a region split apart by its margin needs a front of its own: both discs of a dumbbell whose neck the margin
+    cuts get the grid's density, up to their boundary, and nothing is sampled far outside."""
+    import shapely
+
+    from polishpath.plan.dwell import region_polygon
+    from polishpath.plan.points import blue_noise_points
+    from polishpath.plan.points.blue_noise import SQUARE_CELL, _grow, _poisson_disk, _squares
+    from polishpath.types import Region
+
+    h, R = 1.0, 15.0
+    left, right = shapely.Polygon(_disc(R, 180, (-40.0, 0.0))), shapely.Polygon(_disc(R, 180, (40.0, 0.0)))
+    outline = shapely.union_all([left, right, shapely.box(-30.0, -0.3, 30.0, 0.3)])
+    region = Region(np.asarray(outline.exterior.coords)[:-1])
+    pts = blue_noise_points(region, h, seed=11, margin=0.5)
+    assert pts.polygon.geom_type == "MultiPolygon"  # the margin cut the neck
+    area_part = np.pi * (R - 0.5) ** 2
+    for side in (-1, 1):
+        mine = pts.uv[np.sign(pts.uv[:, 0]) == side]
+        assert abs(len(mine) / (area_part / h**2) - 1) < 0.04, side
+        # up to the boundary: the points within 2 h of the rim hold their band's share
+        rim = np.hypot(mine[:, 0] - 40.0 * side, mine[:, 1]) > R - 0.5 - 2 * h
+        band = np.pi * ((R - 0.5) ** 2 - (R - 2.5) ** 2)
+        assert abs(rim.sum() / (band / h**2) - 1) < 0.08, side
+    d, _ = cKDTree(pts.uv).query(pts.uv, k=2)
+    assert d[:, 1].min() >= pts.min_distance * (1 - 1e-9)
+    # the sampler itself places nothing in the cells far from the region (the middle of the box)
+    poly = region_polygon(region, 0.5)
+    x0, y0, x1, y1 = poly.bounds
+    mc = SQUARE_CELL * h
+    bnd, centre_in = _squares(poly, mc)
+    mask = _grow(bnd | centre_in).ravel().astype(np.uint8)
+    xs, ys = _poisson_disk(x1 - x0, y1 - y0, pts.min_distance, 12, 5, mask, mc, bnd.shape[1])
+    far = shapely.distance(poly, shapely.points(xs + x0, ys + y0)) > 2.0 * mc * np.sqrt(2.0)
+    assert not far.any()
+    assert mask.mean() < 0.9
