@@ -16,13 +16,13 @@ blue-noise points planned in at most 2x the grid walk's time; 10^7 completes. Th
 of the plan are printed beside its CPU seconds (the planner is single-threaded: they agree on
 a quiet machine).
 
-Figures (2026-12-02, 2-core machine shared by three engineers, load 1.3-1.9, CPU s; RSS peak):
-before the speed commits (cd8487a) 10^5 grid 0.13 / blue-noise 0.48 (3.7x), 10^6 1.58 / 5.32 s
-(3.4x; 4.2x at load 5 earlier), 571 MB; after them 10^5 0.13 / 0.35 (2.7x), 10^6 1.54 / 3.60 s
-(2.3x; 2.07-2.4x over several runs), 473-537 MB against the grid walk's 342 MB; 10^7 (under the
-big-memory lock) grid 19.4 s / 1.73 GB, blue-noise 46.1 s / 3.25 GB (2.4x; 73.9 s, 3.7x before),
-one piece, every guarantee held. The 2x target is still missed: docs/planning.md ("Speed") says
-where the time goes and what was tried.
+Figures (2026-12-02, 2-core machine shared by three engineers, CPU s; RSS peak), before the speed
+commits (cd8487a) and after them (939da85), run one after the other at load 3.0-3.2: 10^5 grid
+0.14 / blue-noise 0.50 (3.6x) -> 0.15 / 0.30 (2.0x); 10^6 1.89 / 6.24 s (3.3x) -> 1.51 / 3.14 s
+(2.1x; 2.0x wall), 571 -> 482 MB against the grid walk's 342 MB; another run at load 3.5 gave 2.8x.
+10^7 (under the big-memory lock): 73.9 s, 3.79 GB (3.7x) -> 42.9 s, 2.68 GB against the grid walk's
+20.4 s (2.1x), one piece, every guarantee held. docs/planning.md ("Speed") says where the time goes
+and what was tried.
 
     PYTHONPATH=src python benchmarks/bench_plan.py --sets [--set-sizes 1e5,1e6,1e7] [--density-size 1e5] [--check-size 1e6]
 
