@@ -322,7 +322,7 @@ def _dwell_s_per_point(tif, spacing_mm: float, removal_depth_nm: float):
 
 
 #: the treatments a comparison gives every path alike (docs/simulation.md, "Where the walks' band RMS comes from")
-TREATMENTS = ("none", "density-fit")
+TREATMENTS = ("none", "density-fit", "ripple-fit")
 
 
 def check_comparison(*, seeds: int, mode: str, timing: str, time_model: str | None = None,
@@ -432,11 +432,14 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         Where the independent cases (path x seed, each path's machine timing) run: every core by
         default, one process, or a Dask cluster (:mod:`polishpath.simulate.cases`); the same result
         whatever the spread.
-    treatment : {"none", "density-fit"}
+    treatment : {"none", "density-fit", "ripple-fit"}
         ``"density-fit"``: every path's dwell points are first moved by
         :func:`~polishpath.simulate.densityfit.fit_time_density` (its time centroids centred, then its
         machine time density flattened as the tool passes it into 0.95-2 1/mm, within 0.3 h of the planned
         points), the same for every path; each row records the fit's figures (``treatment``).
+        ``"ripple-fit"``: moved by :func:`~polishpath.simulate.ripplefit.fit_removal_ripple` instead (the
+        removal of the machine's samples, as the tool's own kernels compute it, made flat over 0.95-3 1/mm,
+        within the same bounds).
 
     Returns
     -------
@@ -492,12 +495,13 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
             p = _per_seed(pp, i, name)
             xy, pieces = np.asarray(p.uv), np.asarray(p.pieces)
             times = _dwell_times(xy, pieces, t0_point * (float(p.spacing) / h0) ** 2, dwell)
-            if treatment == "density-fit":
+            if treatment != "none":
                 if id(p) not in fitted:  # a deterministic path is fitted once
                     from .densityfit import fit_time_density
+                    from .ripplefit import fit_removal_ripple
 
-                    fitted[id(p)] = fit_time_density(xy, times, pieces, tif_used, spacing_mm=float(p.spacing),
-                                                     machine=profile)
+                    fit = fit_time_density if treatment == "density-fit" else fit_removal_ripple
+                    fitted[id(p)] = fit(xy, times, pieces, tif_used, spacing_mm=float(p.spacing), machine=profile)
                 fit = fitted[id(p)]
                 xy = fit.xy
                 fit_stats.setdefault(name, []).append(fit.stats)
