@@ -260,6 +260,7 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
 
     q, r_cur = p.copy(), r0
     loss_planned = band_power(r0)[0]
+    scale = max(loss_planned, 1e-300)
     best_q, best_loss, best_step = p, loss_planned, 0
     for step in range(1, int(steps) + 1):
         ops = _curve_operators(q, pcs, tp)
@@ -285,7 +286,7 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
             grad = np.zeros_like(qq)
             for rows, bmat, lu, a, b in ops:
                 grad[a:b] = lu.solve(bmat.T @ grad_pts[rows], trans="T")
-            return loss, grad[idx].ravel()
+            return loss / scale, grad[idx].ravel() / scale  # in units of the planned loss: L-BFGS-B's tolerances
 
         lo = np.maximum(p[idx] - bounds[0], q[idx] - trust).ravel()
         hi = np.minimum(p[idx] + bounds[0], q[idx] + trust).ravel()
