@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.spatial import cKDTree
-from shapely.geometry import LineString
 
+from fit_helpers import assert_fit_keeps_guarantees
 from polishpath.errors import ParameterError
 from polishpath.plan import plan
 from polishpath.simulate.compare import TREATMENTS, _dwell_s_per_point, compare_planned
@@ -60,16 +59,7 @@ def test_the_linearised_curve_reproduces_the_machines_samples(walk):
 
 def test_the_fit_keeps_the_paths_guarantees(walk):
     p, _, _, fit = walk
-    q, p0 = fit.xy, np.asarray(p.uv)
-    assert q.shape == p0.shape
-    assert np.hypot(*(q - p0).T).max() <= 0.3 * H + 1e-12
-    nn0 = cKDTree(p0).query(p0, 2)[0][:, 1]
-    nn = cKDTree(q).query(q, 2)[0][:, 1]
-    assert nn.min() >= min(0.7 * H, nn0.min()) - 1e-12
-    pcs = np.asarray(p.pieces)
-    for a, b in zip(pcs[:-1], pcs[1:]):
-        assert np.hypot(*np.diff(q[a:b], axis=0).T).max() <= 2 * H + 1e-12
-        assert LineString(q[a:b]).is_simple
+    assert_fit_keeps_guarantees(p.uv, p.pieces, fit.xy, H)
 
 
 def test_the_fit_is_the_same_bytes_for_the_same_input(walk):
