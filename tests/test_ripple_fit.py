@@ -112,3 +112,18 @@ def test_given_to_every_path_the_fit_takes_the_walks_below_the_periodic_paths():
                         for k in ("rectangular", "spiral"))
     assert after["relaxed"]["residual_band_rms_nm"] < 0.95 * best_periodic, (before, after)
     assert after["relaxed"]["lattice_peak_db"] < after["rectangular"]["lattice_peak_db"] - 6.0
+
+
+def test_a_fit_inside_bounds_moves_only_the_points_within_reach_of_them(walk):
+    p, times, tif, _ = walk
+    box = (-2.0, -2.0, 2.0, 2.0)
+    fit = fit_removal_ripple(p.uv, times, p.pieces, tif, spacing_mm=H, steps=2, bounds=box)
+    moved = np.any(fit.xy != np.asarray(p.uv), axis=1)
+    assert moved.any()
+    far = np.asarray(p.uv)[moved]
+    reach = tif.radius_mm
+    assert np.all((far[:, 0] >= box[0] - reach - 0.1) & (far[:, 0] <= box[2] + reach + 0.1)
+                  & (far[:, 1] >= box[1] - reach - 0.1) & (far[:, 1] <= box[3] + reach + 0.1))
+    assert fit.stats["loss"] < fit.stats["loss_planned"]
+    with pytest.raises(ParameterError, match="bounds"):
+        fit_removal_ripple(p.uv, times, p.pieces, tif, spacing_mm=H, steps=1, bounds=(1.0, 0.0, 0.0, 1.0))

@@ -438,8 +438,8 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         machine time density flattened as the tool passes it into 0.95-2 1/mm, within 0.3 h of the planned
         points), the same for every path; each row records the fit's figures (``treatment``).
         ``"ripple-fit"``: moved by :func:`~polishpath.simulate.ripplefit.fit_removal_ripple` instead (the
-        removal of the machine's samples, as the tool's own kernels compute it, made flat over 0.95-3 1/mm,
-        within the same bounds).
+        removal of the machine's samples, as the tool's own kernels compute it, made flat over 0.95-3 1/mm
+        inside the patch, within the same bounds).
 
     Returns
     -------
@@ -500,8 +500,12 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                     from .densityfit import fit_time_density
                     from .ripplefit import fit_removal_ripple
 
-                    fit = fit_time_density if treatment == "density-fit" else fit_removal_ripple
-                    fitted[id(p)] = fit(xy, times, pieces, tif_used, spacing_mm=float(p.spacing), machine=profile)
+                    if treatment == "density-fit":
+                        fitted[id(p)] = fit_time_density(xy, times, pieces, tif_used, spacing_mm=float(p.spacing),
+                                                         machine=profile)
+                    else:  # the removal over the simulated patch: a patch of a large part costs what the patch costs
+                        fitted[id(p)] = fit_removal_ripple(xy, times, pieces, tif_used, spacing_mm=float(p.spacing),
+                                                           machine=profile, bounds=(xmin, ymin, xmax, ymax))
                 fit = fitted[id(p)]
                 xy = fit.xy
                 fit_stats.setdefault(name, []).append(fit.stats)

@@ -97,8 +97,10 @@ class _Kernels:
         return self.basis.coefficients(s, headings)
 
 
-def _curve_operators(q: np.ndarray, pieces: np.ndarray, tool_path, degree: int = 3):
+def _curve_operators(q: np.ndarray, pieces: np.ndarray, tool_path, keep: np.ndarray | None = None, degree: int = 3):
     """Per piece of at least ``degree + 1`` points: (sample rows, B, LU of N, first, end) with samples = B N^-1 q.
+
+    ``keep`` (M',) int, optional: the samples to model (rows index into it); default all.
 
     The smoothing stage's curve (:func:`polishpath.smooth.nurbs.interpolate_nurbs`, chord parameters,
     averaged knots) with its parameters held; each sample's parameter on its piece is read from the
@@ -110,6 +112,8 @@ def _curve_operators(q: np.ndarray, pieces: np.ndarray, tool_path, degree: int =
     from ..smooth.nurbs import averaged_knots, basis_functions, find_spans, interpolation_params
 
     sparams = np.asarray(tool_path.sample_params, dtype=np.float64)
+    if keep is not None:
+        sparams = sparams[keep]
     dparams = np.asarray(tool_path.dwell_params, dtype=np.float64)
     ops = []
     for a, b in zip(pieces[:-1], pieces[1:]):
@@ -124,6 +128,8 @@ def _curve_operators(q: np.ndarray, pieces: np.ndarray, tool_path, degree: int =
                               (np.repeat(np.arange(n), degree + 1), (span[:, None] - degree + cols).ravel())),
                              shape=(n, n))
         rows = np.flatnonzero((sparams >= dparams[a]) & (sparams <= dparams[b - 1]))
+        if not len(rows):
+            continue  # a piece off the grid
         us = np.interp(sparams[rows], dparams[a:b], u)
         span_s = find_spans(knots, degree, n, us)
         bmat = sp.csr_matrix((basis_functions(knots, degree, span_s, us).ravel(),
@@ -149,7 +155,7 @@ def _bilinear_gradient(field: np.ndarray, pts: np.ndarray, origin, dx: float) ->
 def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPPLE_FIT_BAND_PER_MM, steps: int = 10,
                        trust_mm: float | None = None, max_shift_mm: float | None = None,
                        min_distance_mm: float | None = None, max_step_mm: float | None = None,
-                       dx_mm: float = 0.05, inner_iterations: int = 80, machine=None) -> DensityFit:
+                       dx_mm: float = 0.05, inner_iterations: int = 80, machine=None, bounds=None) -> DensityFit:
     """Move planar dwell points so the removal the machine's samples leave has the least power in ``band``.
 
     Parameters
@@ -178,6 +184,10 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
         L-BFGS-B iterations per step at most.
     machine : MachineProfile, str or None
         As :func:`~polishpath.simulate.machinetime.machine_tool_path`.
+    bounds : (4,) float, optional
+        ``(xmin, ymin, xmax, ymax)``, mm: fit the removal inside this rectangle only (a comparison's
+        patch); only the points within the tool's reach of it move, and the removal is computed on a grid
+        around it alone, so a patch of a large part costs what the patch costs. Default: the whole path.
 
     Returns
     -------
@@ -209,28 +219,39 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     if not (0 <= lo_f < hi_f < 0.5 / dx_mm):
         raise ParameterError(f"band must satisfy 0 <= f_lo < f_hi < 1/(2 dx) = {0.5 / dx_mm:g} 1/mm, got {band!r}.")
     trust = 0.05 * h if trust_mm is None else float(trust_mm)
-    bounds = (0.3 * h if max_shift_mm is None else float(max_shift_mm),
+    limits = (0.3 * h if max_shift_mm is None else float(max_shift_mm),
               0.7 * h if min_distance_mm is None else float(min_distance_mm),
               2.0 * h if max_step_mm is None else float(max_step_mm))
-    if not (trust > 0 and all(v > 0 for v in bounds)):
+    if not (trust > 0 and all(v > 0 for v in limits)):
         raise ParameterError("trust_mm, max_shift_mm, min_distance_mm and max_step_mm must be > 0 mm.")
     if int(steps) < 0 or int(inner_iterations) < 1:
         raise ParameterError(f"steps must be >= 0 and inner_iterations >= 1, got {steps}, {inner_iterations}.")
     pcs = np.asarray(piece_offsets(pieces, len(p)), dtype=np.int64)
-    guard = _Guard(p, pcs, *bounds)
+    guard = _Guard(p, pcs, *limits)
     reach = float(getattr(tif, "radius_mm", 0.0)) or 3.0
     x0, y0 = p.min(axis=0) - reach - 2 * h
     x1, y1 = p.max(axis=0) + reach + 2 * h
+    if bounds is not None:
+        bx0, by0, bx1, by1 = (float(v) for v in bounds)
+        if not (bx0 < bx1 and by0 < by1):
+            raise ParameterError(f"bounds must be (xmin, ymin, xmax, ymax) with xmin < xmax, ymin < ymax, got {bounds!r}.")
+        # the grid: the rectangle and twice the reach around it (a sample's kernel wraps round the grid's edge
+        # no further than one reach, so nothing wraps into the rectangle or the points that move)
+        x0, y0 = max(x0, bx0 - 2 * reach - 2 * h), max(y0, by0 - 2 * reach - 2 * h)
+        x1, y1 = min(x1, bx1 + 2 * reach + 2 * h), min(y1, by1 + 2 * reach + 2 * h)
     shape = (int(np.ceil((y1 - y0) / dx_mm)) + 1, int(np.ceil((x1 - x0) / dx_mm)) + 1)
     origin = (float(x0), float(y0))
     f = np.hypot(sfft.rfftfreq(shape[1], dx_mm)[None, :], sfft.fftfreq(shape[0], dx_mm)[:, None])
     in_band = ((f >= lo_f) & (f <= hi_f)).astype(np.float64)
 
     def machine_run(q):
+        """The ToolPath, the kept samples' indices (those on the grid) and their positions, times, speeds, headings."""
         tp, timed, _ = machine_tool_path(q, t, pcs, spacing_mm=h, machine=machine)
-        return tp, _motion(timed)
+        s, w, speed, heading = _motion(timed)
+        keep = np.flatnonzero((s[:, 0] >= x0) & (s[:, 0] <= x1) & (s[:, 1] >= y0) & (s[:, 1] <= y1))
+        return tp, keep, (s[keep], w[keep], speed[keep], heading[keep])
 
-    tp, (s, w, speed, heading) = machine_run(p)
+    tp, keep, (s, w, speed, heading) = machine_run(p)
     kern = _Kernels(tif, dx_mm, shape, speed, w)
 
     def removal(pts, wc):
@@ -246,12 +267,20 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     rr = int(np.ceil(reach / dx_mm))
     yy, xx = np.mgrid[-rr:rr + 1, -rr:rr + 1]
     inner = ndimage.binary_erosion(full, structure=(xx * xx + yy * yy) <= rr * rr)
+    near = inner
+    if bounds is not None:
+        gy, gx = np.mgrid[0:shape[0], 0:shape[1]]
+        gx, gy = origin[0] + gx * dx_mm, origin[1] + gy * dx_mm
+        inner = inner & (gx >= bx0) & (gx <= bx1) & (gy >= by0) & (gy <= by1)
+        near = near & (gx >= bx0 - reach) & (gx <= bx1 + reach) & (gy >= by0 - reach) & (gy <= by1 + reach)
+        del gx, gy
     if not inner.any():
         raise ParameterError("the path has no interior the tool covers fully; the ripple fit needs a larger region.",
                              "Fit a path over a region at least a few tool diameters wide.")
     full_f, inner_f = full.astype(np.float64), inner.astype(np.float64)
-    at = ndimage.map_coordinates(inner_f, [(p[:, 1] - origin[1]) / dx_mm, (p[:, 0] - origin[0]) / dx_mm], order=1)
-    idx = np.flatnonzero(at > 0.5)  # the points that move: those inside the interior
+    at = ndimage.map_coordinates(near.astype(np.float64), [(p[:, 1] - origin[1]) / dx_mm, (p[:, 0] - origin[0]) / dx_mm],
+                                 order=1)  # 0 off the grid
+    idx = np.flatnonzero(at > 0.5)  # the points that move: those inside the interior (within reach of the bounds)
 
     def band_power(r):
         mean = float(r[full].mean())
@@ -263,7 +292,7 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     scale = max(loss_planned, 1e-300)
     best_q, best_loss, best_step = p, loss_planned, 0
     for step in range(1, int(steps) + 1):
-        ops = _curve_operators(q, pcs, tp)
+        ops = _curve_operators(q, pcs, tp, keep)
 
         def positions(qq, ops=ops, s=s):
             out = s.copy()
@@ -288,14 +317,14 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
                 grad[a:b] = lu.solve(bmat.T @ grad_pts[rows], trans="T")
             return loss / scale, grad[idx].ravel() / scale  # in units of the planned loss: L-BFGS-B's tolerances
 
-        lo = np.maximum(p[idx] - bounds[0], q[idx] - trust).ravel()
-        hi = np.minimum(p[idx] + bounds[0], q[idx] + trust).ravel()
+        lo = np.maximum(p[idx] - limits[0], q[idx] - trust).ravel()
+        hi = np.minimum(p[idx] + limits[0], q[idx] + trust).ravel()
         res = optimize.minimize(objective, np.clip(q[idx].ravel(), lo, hi), jac=True, method="L-BFGS-B",
                                 bounds=list(zip(lo, hi)), options={"maxiter": int(inner_iterations)})
         moved = q.copy()
         moved[idx] = res.x.reshape(-1, 2)
         q = guard.apply(moved, q)
-        tp, (s, w, speed, heading) = machine_run(q)
+        tp, keep, (s, w, speed, heading) = machine_run(q)
         wc = kern.coefficients(speed, heading) * w[None, :]
         r_cur = removal(s, wc)
         loss = band_power(r_cur)[0]
@@ -305,6 +334,6 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     stats = {"loss_planned": loss_planned, "loss": best_loss, "steps": int(steps), "best_step": best_step,
              "shift_rms_mm": float(np.sqrt(np.mean(d * d))), "shift_max_mm": float(d.max()),
              "moved_share": float(np.mean(d > 0)), "reverted": guard.reverted, "n_kernels": len(kern.spectra),
-             "band_per_mm": [lo_f, hi_f], "trust_mm": trust, "max_shift_mm": bounds[0],
-             "min_distance_mm": bounds[1], "max_step_mm": bounds[2], "dx_mm": float(dx_mm)}
+             "band_per_mm": [lo_f, hi_f], "trust_mm": trust, "max_shift_mm": limits[0],
+             "min_distance_mm": limits[1], "max_step_mm": limits[2], "dx_mm": float(dx_mm)}
     return DensityFit(best_q, stats)
