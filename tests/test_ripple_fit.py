@@ -6,7 +6,7 @@ keeps every guarantee it states (no point more than 0.3 h from its planned place
 0.7 h to another or than the set already was, no step over 2 h, no piece crossing itself, the order
 and the dwell times unchanged), it is the same bytes for the same input, it refuses bad settings,
 it works for a tool without a feed dependence, and given to every path by ``compare_planned(...,
-treatment="ripple-fit")`` it lowers the walks' band RMS below the periodic paths' (docs/simulation.md).
+treatment="ripple-fit")`` it lowers every path's band RMS (docs/simulation.md).
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def test_the_comparison_offers_the_ripple_fit():
 
 
 @pytest.mark.slow
-def test_given_to_every_path_the_fit_takes_the_walks_below_the_periodic_paths():
+def test_given_to_every_path_the_fit_lowers_every_paths_band_rms():
     region = square_region(18.0)
     planned = {"relaxed": plan(region, H, "pseudorandom", seed=0, dwell_points="relaxed"),
                "rectangular": plan(region, H, "rectangular"), "spiral": plan(region, H, "spiral")}
@@ -106,24 +106,10 @@ def test_given_to_every_path_the_fit_takes_the_walks_below_the_periodic_paths():
     out = compare_planned(planned, treatment="ripple-fit", **kw)
     after = {r["name"]: r for r in out["rows"]}
     assert out["params"]["treatment"] == "ripple-fit"
-    # measured on this square: relaxed 1.080 -> 0.767 nm, rectangular 0.889 -> 0.856, spiral 0.922 -> 0.943
-    assert after["relaxed"]["residual_band_rms_nm"] < 0.8 * before["relaxed"]["residual_band_rms_nm"], (before, after)
-    best_periodic = min(min(before[k]["residual_band_rms_nm"], after[k]["residual_band_rms_nm"])
-                        for k in ("rectangular", "spiral"))
-    assert after["relaxed"]["residual_band_rms_nm"] < 0.95 * best_periodic, (before, after)
+    # measured on this square: relaxed 1.080 -> 0.593 nm, rectangular 0.889 -> 0.802, spiral 0.922 -> 0.626: the fit
+    # judges what the figures judge (the evaluation window, tapered alike), so it lowers every path's band RMS
+    for name in planned:
+        assert after[name]["treatment"]["loss"] < after[name]["treatment"]["loss_planned"]
+        assert after[name]["residual_band_rms_nm"] < 0.97 * before[name]["residual_band_rms_nm"], (name, before, after)
+    assert after["relaxed"]["residual_band_rms_nm"] < 0.7 * before["relaxed"]["residual_band_rms_nm"], (before, after)
     assert after["relaxed"]["lattice_peak_db"] < after["rectangular"]["lattice_peak_db"] - 6.0
-
-
-def test_a_fit_inside_bounds_moves_only_the_points_within_reach_of_them(walk):
-    p, times, tif, _ = walk
-    box = (-2.0, -2.0, 2.0, 2.0)
-    fit = fit_removal_ripple(p.uv, times, p.pieces, tif, spacing_mm=H, steps=2, bounds=box)
-    moved = np.any(fit.xy != np.asarray(p.uv), axis=1)
-    assert moved.any()
-    far = np.asarray(p.uv)[moved]
-    reach = tif.radius_mm
-    assert np.all((far[:, 0] >= box[0] - reach - 0.1) & (far[:, 0] <= box[2] + reach + 0.1)
-                  & (far[:, 1] >= box[1] - reach - 0.1) & (far[:, 1] <= box[3] + reach + 0.1))
-    assert fit.stats["loss"] < fit.stats["loss_planned"]
-    with pytest.raises(ParameterError, match="bounds"):
-        fit_removal_ripple(p.uv, times, p.pieces, tif, spacing_mm=H, steps=1, bounds=(1.0, 0.0, 0.0, 1.0))

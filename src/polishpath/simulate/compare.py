@@ -439,7 +439,7 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
         points), the same for every path; each row records the fit's figures (``treatment``).
         ``"ripple-fit"``: moved by :func:`~polishpath.simulate.ripplefit.fit_removal_ripple` instead (the
         removal of the machine's samples, as the tool's own kernels compute it, made flat over 0.95-3 1/mm
-        inside the patch, within the same bounds).
+        in the evaluation window, within the same bounds).
 
     Returns
     -------
@@ -503,9 +503,10 @@ def compare_planned(planned: dict[str, Any], *, seed: int = 0, seeds: int = 5, m
                     if treatment == "density-fit":
                         fitted[id(p)] = fit_time_density(xy, times, pieces, tif_used, spacing_mm=float(p.spacing),
                                                          machine=profile)
-                    else:  # the removal over the simulated patch: a patch of a large part costs what the patch costs
+                    else:  # the removal where the figures judge it: the evaluation window (a patch of a large
+                        # part then costs what the patch costs)
                         fitted[id(p)] = fit_removal_ripple(xy, times, pieces, tif_used, spacing_mm=float(p.spacing),
-                                                           machine=profile, bounds=(xmin, ymin, xmax, ymax))
+                                                           machine=profile, bounds=eval_bounds)
                 fit = fitted[id(p)]
                 xy = fit.xy
                 fit_stats.setdefault(name, []).append(fit.stats)

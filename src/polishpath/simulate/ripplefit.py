@@ -26,7 +26,8 @@ How (written here because it is the project's own: no library fits a tool path's
    points evaluated at the samples' curve parameters, ``X = B N^-1 q`` per piece (``N`` the
    collocation matrix, ``B`` the basis at the samples), with the parameters, the samples' times and
    their kernels' coefficients held at this run's.
-3. Minimise the band power of the modelled removal over the part's fully covered interior with
+3. Minimise the band power of the modelled removal over the part's fully covered interior (or the
+   given bounds), windowed as :mod:`polishpath.simulate.fair` windows the map it judges, with
    L-BFGS-B, each coordinate within ``trust_mm`` of where it is and ``max_shift_mm`` of its planned
    place; the model's gap to the machine's removal at the current points is held as a fixed field.
 4. Keep the guarantees (no point nearer than ``min_distance_mm`` to another, no step over
@@ -192,8 +193,9 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     Returns
     -------
     DensityFit
-        ``xy`` the moved points; ``stats``: ``loss_planned`` and ``loss`` (the removal's band power over
-        its mean, summed over the covered interior's pixels, as planned and kept), ``steps``,
+        ``xy`` the moved points; ``stats``: ``loss_planned`` and ``loss`` (the band power of the removal over
+        its mean in the covered interior, or in ``bounds``, tapered at its edge as the fair figures taper
+        their map; as planned and kept), ``steps``,
         ``best_step``, ``shift_rms_mm``, ``shift_max_mm``, ``moved_share``, ``reverted``, ``n_kernels``
         and the bounds used.
 
@@ -206,6 +208,7 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     from scipy import ndimage, optimize
 
     from ..pathops import piece_offsets
+    from .fair import _window, taper_width_mm
     from .removal import rasterize_time
 
     p = np.asarray(xy, dtype=np.float64)
@@ -271,21 +274,34 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     if bounds is not None:
         gy, gx = np.mgrid[0:shape[0], 0:shape[1]]
         gx, gy = origin[0] + gx * dx_mm, origin[1] + gy * dx_mm
-        inner = inner & (gx >= bx0) & (gx <= bx1) & (gy >= by0) & (gy <= by1)
+        inner_rect = (gx >= bx0) & (gx <= bx1) & (gy >= by0) & (gy <= by1)
+        inner = inner & inner_rect
         near = near & (gx >= bx0 - reach) & (gx <= bx1 + reach) & (gy >= by0 - reach) & (gy <= by1 + reach)
         del gx, gy
     if not inner.any():
         raise ParameterError("the path has no interior the tool covers fully; the ripple fit needs a larger region.",
                              "Fit a path over a region at least a few tool diameters wide.")
-    full_f, inner_f = full.astype(np.float64), inner.astype(np.float64)
     at = ndimage.map_coordinates(near.astype(np.float64), [(p[:, 1] - origin[1]) / dx_mm, (p[:, 0] - origin[0]) / dx_mm],
                                  order=1)  # 0 off the grid
     idx = np.flatnonzero(at > 0.5)  # the points that move: those inside the interior (within reach of the bounds)
 
+    # the loss is the fair figures' own: the band power of the removal over its mean, tapered at the edge of
+    # where it is judged as polishpath.simulate.fair tapers the map it judges (a raised cosine 2 mm wide), so
+    # that neither the rim's error outside nor the band filter's ringing from there counts
+    if bounds is None:
+        win = _window(inner, dx_mm, taper_width_mm())
+    else:  # the rectangle itself, as the comparison crops and tapers it (whatever the coverage inside)
+        rows = np.flatnonzero(inner_rect.any(axis=1))
+        cols = np.flatnonzero(inner_rect.any(axis=0))
+        win = np.zeros(shape)
+        win[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1] = _window(
+            np.ones((len(rows), len(cols)), dtype=bool), dx_mm, taper_width_mm())
+    win_sum = float(win.sum())
+
     def band_power(r):
-        mean = float(r[full].mean())
-        g = sfft.irfft2(sfft.rfft2(full_f * (r / mean - 1.0)) * in_band, s=shape)
-        return float(np.sum(inner_f * g * g)), g, mean
+        mean = float(np.sum(win * r)) / win_sum
+        g = sfft.irfft2(sfft.rfft2(win * (r / mean - 1.0)) * in_band, s=shape)
+        return float(np.sum(g * g)), g, mean
 
     q, r_cur = p.copy(), r0
     loss_planned = band_power(r0)[0]
@@ -307,7 +323,7 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
             qq[idx] = z.reshape(-1, 2)
             pts = positions(qq)
             loss, g, mean = band_power(removal(pts, wc) + gap)
-            adj = sfft.rfft2(full_f * 2.0 * sfft.irfft2(sfft.rfft2(inner_f * g) * in_band, s=shape) / mean)
+            adj = sfft.rfft2(win * 2.0 * g / mean)  # the band filter is a projection: its adjoint on g is g
             grad_pts = np.zeros_like(pts)
             for j, spec in enumerate(kern.spectra):
                 grad_pts += wc[j][:, None] * _bilinear_gradient(sfft.irfft2(adj * np.conj(spec), s=shape), pts,
