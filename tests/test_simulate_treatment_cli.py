@@ -27,5 +27,5 @@ def test_an_unknown_treatment_is_refused_with_the_choices(tmp_path):
     r = CliRunner().invoke(app, ["simulate", "hemisphere:R=15,triangles=800", "--patterns", "raster",
                                  "--treatment", "polish-harder", "-o", str(tmp_path / "x")])
     assert r.exit_code == 2, r.output
-    assert "unknown treatment 'polish-harder'" in r.output and "density-fit" in r.output
+    assert "unknown treatment 'polish-harder'" in r.output and "density-fit" in r.output and "ripple-fit" in r.output
     assert "Traceback" not in r.output and not (tmp_path / "x").exists()
