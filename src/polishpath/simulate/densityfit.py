@@ -112,6 +112,27 @@ def _zero_feed_kernel(tif, dx: float) -> np.ndarray:
     return np.asarray(tif.kernel(dx), dtype=np.float64)
 
 
+def _fit_inputs(what: str, xy, dwell_s, spacing_mm, band, dx_mm, min_points: int, limits_mm) -> tuple:
+    """A fit's points, times, spacing, band and guarantees, checked: ``(p (N, 2), t (N,), h, (lo, hi), limits)``.
+
+    ``limits_mm`` is ``(max_shift_mm, min_distance_mm, max_step_mm)``, each None for its default
+    (0.3 h, 0.7 h, 2 h); ``what`` names the fit in the messages.
+    """
+    p = np.asarray(xy, dtype=np.float64)
+    t = np.asarray(dwell_s, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2 or t.shape != (len(p),) or len(p) < min_points:
+        raise ParameterError(f"the {what} needs (N, 2) dwell points (N >= {min_points}) and N times, got {p.shape}, "
+                             f"{t.shape}.")
+    h = float(spacing_mm)
+    if not (np.isfinite(h) and h > 0):
+        raise ParameterError(f"spacing_mm must be > 0 mm, got {spacing_mm}.")
+    lo, hi = (float(b) for b in band)
+    if not (0 <= lo < hi < 0.5 / dx_mm):
+        raise ParameterError(f"band must satisfy 0 <= f_lo < f_hi < 1/(2 dx) = {0.5 / dx_mm:g} 1/mm, got {band!r}.")
+    limits = tuple(d * h if v is None else float(v) for v, d in zip(limits_mm, (0.3, 0.7, 2.0)))
+    return p, t, h, (lo, hi), limits
+
+
 class _Guard:
     """The guarantees every move keeps (see the module docstring); reverts the points that would break one."""
 
@@ -203,20 +224,9 @@ def fit_time_density(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=DENSIT
 
     from .removal import rasterize_time
 
-    p = np.asarray(xy, dtype=np.float64)
-    t = np.asarray(dwell_s, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 2 or t.shape != (len(p),) or len(p) < 3:
-        raise ParameterError(f"the density fit needs (N, 2) dwell points (N >= 3) and N times, got {p.shape}, {t.shape}.")
-    h = float(spacing_mm)
-    if not (np.isfinite(h) and h > 0):
-        raise ParameterError(f"spacing_mm must be > 0 mm, got {spacing_mm}.")
-    lo, hi = (float(b) for b in band)
-    if not (0 <= lo < hi < 0.5 / dx_mm):
-        raise ParameterError(f"band must satisfy 0 <= f_lo < f_hi < 1/(2 dx) = {0.5 / dx_mm:g} 1/mm, got {band!r}.")
+    p, t, h, (lo, hi), guard_args = _fit_inputs("density fit", xy, dwell_s, spacing_mm, band, dx_mm, 3,
+                                                (max_shift_mm, min_distance_mm, max_step_mm))
     step = 0.02 * h if step_mm is None else float(step_mm)
-    guard_args = (0.3 * h if max_shift_mm is None else float(max_shift_mm),
-                  0.7 * h if min_distance_mm is None else float(min_distance_mm),
-                  2.0 * h if max_step_mm is None else float(max_step_mm))
     if not (step > 0 and all(v > 0 for v in guard_args)):
         raise ParameterError("step_mm, max_shift_mm, min_distance_mm and max_step_mm must be > 0 mm.")
     from ..pathops import piece_offsets

@@ -40,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
-from .densityfit import DensityFit, _Guard
+from .densityfit import DensityFit, _fit_inputs, _Guard
 from .machinetime import machine_tool_path
 
 __all__ = ["RIPPLE_FIT_BAND_PER_MM", "fit_removal_ripple"]
@@ -211,20 +211,9 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     from .fair import _window, taper_width_mm
     from .removal import rasterize_time
 
-    p = np.asarray(xy, dtype=np.float64)
-    t = np.asarray(dwell_s, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 2 or t.shape != (len(p),) or len(p) < 4:
-        raise ParameterError(f"the ripple fit needs (N, 2) dwell points (N >= 4) and N times, got {p.shape}, {t.shape}.")
-    h = float(spacing_mm)
-    if not (np.isfinite(h) and h > 0):
-        raise ParameterError(f"spacing_mm must be > 0 mm, got {spacing_mm}.")
-    lo_f, hi_f = (float(b) for b in band)
-    if not (0 <= lo_f < hi_f < 0.5 / dx_mm):
-        raise ParameterError(f"band must satisfy 0 <= f_lo < f_hi < 1/(2 dx) = {0.5 / dx_mm:g} 1/mm, got {band!r}.")
+    p, t, h, (lo_f, hi_f), limits = _fit_inputs("ripple fit", xy, dwell_s, spacing_mm, band, dx_mm, 4,
+                                                (max_shift_mm, min_distance_mm, max_step_mm))
     trust = 0.05 * h if trust_mm is None else float(trust_mm)
-    limits = (0.3 * h if max_shift_mm is None else float(max_shift_mm),
-              0.7 * h if min_distance_mm is None else float(min_distance_mm),
-              2.0 * h if max_step_mm is None else float(max_step_mm))
     if not (trust > 0 and all(v > 0 for v in limits)):
         raise ParameterError("trust_mm, max_shift_mm, min_distance_mm and max_step_mm must be > 0 mm.")
     if int(steps) < 0 or int(inner_iterations) < 1:
