@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fit_helpers import assert_fit_keeps_guarantees
+from fit_helpers import assert_fit_keeps_guarantees, relaxed_walk_case
 from polishpath.errors import ParameterError
 from polishpath.plan import plan
-from polishpath.simulate.compare import _dwell_s_per_point, compare_planned
+from polishpath.simulate.compare import compare_planned
 from polishpath.simulate.densityfit import fit_time_density, time_centroids
 from polishpath.simulate.machinetime import machine_tool_path
 from polishpath.simulate.patterns import patch_bounds_at_centre, square_region
@@ -29,9 +29,7 @@ H = 0.5
 
 @pytest.fixture(scope="module")
 def walk():
-    p = plan(square_region(14.0), H, "pseudorandom", seed=0, dwell_points="relaxed")
-    t0, tif, _ = _dwell_s_per_point(default_tif(), H, 200.0)
-    times = np.full(p.n_points, t0)
+    p, times, tif = relaxed_walk_case(14.0, H)
     return p, times, tif, fit_time_density(p.uv, times, p.pieces, tif, spacing_mm=H, iterations=12)
 
 
