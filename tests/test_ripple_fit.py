@@ -35,10 +35,42 @@ def walk():
 
 def test_the_fit_lowers_the_removal_ripple_the_machine_leaves(walk):
     st = walk[3].stats
-    # the loss is recomputed from a machine run of the kept points (measured 0.47 of the planned on this square)
-    assert st["loss"] < 0.7 * st["loss_planned"], st
+    # the loss is recomputed from a machine run of the kept points (measured 0.32 of the planned on this square;
+    # 0.47 with the gradient 400x too small before 2026-12-02)
+    assert st["loss"] < 0.5 * st["loss_planned"], st
     assert st["best_step"] >= 1 and st["moved_share"] > 0.2
     assert st["n_kernels"] > 1  # the rotating tool: its footprint depends on the feed's speed and heading
+
+
+def test_the_fits_gradient_is_the_derivative_of_its_loss(monkeypatch):
+    """The gradient L-BFGS-B is given equals central differences of the loss it is given (positions of points
+    spread over the path): the splat is a time density (its adjoint carries the 1 / dx^2 too) and the loss is
+    over the window's mean (its derivative counts)."""
+    from scipy import optimize
+
+    p, times, tif = relaxed_walk_case(10.0, H)
+    seen = {}
+
+    class Captured(Exception):
+        pass
+
+    def capture(fun, x0, **kw):
+        seen["fun"], seen["x0"] = fun, np.asarray(x0, dtype=np.float64)
+        raise Captured
+
+    monkeypatch.setattr(optimize, "minimize", capture)
+    with pytest.raises(Captured):
+        fit_removal_ripple(p.uv, times, p.pieces, tif, spacing_mm=H, steps=1)
+    fun, x0 = seen["fun"], seen["x0"]
+    _, grad = fun(x0)
+    ks = np.argsort(-np.abs(grad))[:4].tolist() + np.linspace(0, len(x0) - 1, 4).astype(int).tolist()
+    for k in ks:
+        e = 1e-5
+        up, down = x0.copy(), x0.copy()
+        up[k] += e
+        down[k] -= e
+        fd = (fun(up)[0] - fun(down)[0]) / (2 * e)
+        assert abs(fd - grad[k]) <= 1e-4 * np.abs(grad).max() + 1e-3 * abs(fd), (k, fd, grad[k])
 
 
 def test_the_linearised_curve_reproduces_the_machines_samples(walk):
@@ -104,7 +136,7 @@ def test_given_to_every_path_the_fit_lowers_every_paths_band_rms():
     out = compare_planned(planned, treatment="ripple-fit", **kw)
     after = {r["name"]: r for r in out["rows"]}
     assert out["params"]["treatment"] == "ripple-fit"
-    # measured on this square: relaxed 1.080 -> 0.593 nm, rectangular 0.889 -> 0.802, spiral 0.922 -> 0.626: the fit
+    # measured on this square: relaxed 1.080 -> 0.585 nm, rectangular 0.889 -> 0.804, spiral 0.922 -> 0.629: the fit
     # judges what the figures judge (the evaluation window, tapered alike), so it lowers every path's band RMS
     for name in planned:
         assert after[name]["treatment"]["loss"] < after[name]["treatment"]["loss_planned"]

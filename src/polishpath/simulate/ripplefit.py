@@ -156,7 +156,7 @@ def _bilinear_gradient(field: np.ndarray, pts: np.ndarray, origin, dx: float) ->
 def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPPLE_FIT_BAND_PER_MM, steps: int = 10,
                        trust_mm: float | None = None, max_shift_mm: float | None = None,
                        min_distance_mm: float | None = None, max_step_mm: float | None = None,
-                       dx_mm: float = 0.05, inner_iterations: int = 80, machine=None, bounds=None) -> DensityFit:
+                       dx_mm: float = 0.05, inner_iterations: int = 10, machine=None, bounds=None) -> DensityFit:
     """Move planar dwell points so the removal the machine's samples leave has the least power in ``band``.
 
     Parameters
@@ -182,7 +182,8 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
     dx_mm : float
         Grid of the removal, mm (the band ends far below its Nyquist frequency).
     inner_iterations : int
-        L-BFGS-B iterations per step at most.
+        L-BFGS-B iterations per step at most (10: on the tests' 14 mm square, 4 steps of 10 take the loss to 0.324
+        of the planned in 20 s CPU, 4 steps of 80 to 0.321 in 174 s).
     machine : MachineProfile, str or None
         As :func:`~polishpath.simulate.machinetime.machine_tool_path`.
     bounds : (4,) float, optional
@@ -311,12 +312,16 @@ def fit_removal_ripple(xy, dwell_s, pieces, tif, *, spacing_mm: float, band=RIPP
             qq = q.copy()
             qq[idx] = z.reshape(-1, 2)
             pts = positions(qq)
-            loss, g, mean = band_power(removal(pts, wc) + gap)
-            adj = sfft.rfft2(win * 2.0 * g / mean)  # the band filter is a projection: its adjoint on g is g
+            r = removal(pts, wc) + gap
+            loss, g, mean = band_power(r)
+            # d loss / d r: the band filter is a projection (its adjoint on g is g), and the mean is the window's
+            # mean of r: 2 win g / mean - 2 win sum(g win r) / (mean^2 sum(win))
+            adj = sfft.rfft2(win * (2.0 * g / mean - 2.0 * float(np.sum(g * win * r)) / (mean * mean * win_sum)))
             grad_pts = np.zeros_like(pts)
             for j, spec in enumerate(kern.spectra):
-                grad_pts += wc[j][:, None] * _bilinear_gradient(sfft.irfft2(adj * np.conj(spec), s=shape), pts,
-                                                                origin, dx_mm)
+                # the splat is a time density (divided by the pixel's area), and so is its adjoint
+                back = sfft.irfft2(adj * np.conj(spec), s=shape) / (dx_mm * dx_mm)
+                grad_pts += wc[j][:, None] * _bilinear_gradient(back, pts, origin, dx_mm)
             grad = np.zeros_like(qq)
             for rows, bmat, lu, a, b in ops:
                 grad[a:b] = lu.solve(bmat.T @ grad_pts[rows], trans="T")
