@@ -136,32 +136,29 @@ NBR_DI, NBR_DJ = _neighbour_cells()
 
 
 @numba.njit(cache=True)
-def _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):  # pragma: no cover - numba
-    # whether no point of the sampler's grid (gw x gh cells, a point's number or -1) is closer than sqrt(r2) to
-    # (cx, cy) in cell (gi, gj): the 21 cells that can hold one, nearest first (a rejection ends early)
-    for o in range(NBR_DI.shape[0]):
-        ii = gi + NBR_DI[o]
-        jj = gj + NBR_DJ[o]
-        if ii < 0 or jj < 0 or ii >= gw or jj >= gh:
-            continue
-        q = grid[jj * gw + ii]
-        if q >= 0:
-            dx = xs[q] - cx
-            dy = ys[q] - cy
-            if dx * dx + dy * dy < r2:
-                return False
+def _free(cx, cy, g, grid, off, r2):  # pragma: no cover - numba
+    # whether no point of the sampler's grid is closer than sqrt(r2) to (cx, cy) in cell g: the 21 cells that can
+    # hold one (g + off), nearest first (a rejection ends early). The grid holds each cell's point (x, y), inf
+    # where none, and 2 empty cells around: no bounds and no point number to look up (0.91x the sampler's time at
+    # 10^6 points, the same points)
+    for o in range(off.shape[0]):
+        c = 2 * (g + off[o])
+        dx = grid[c] - cx
+        dy = grid[c + 1] - cy
+        if dx * dx + dy * dy < r2:
+            return False
     return True
 
 
 @numba.njit(cache=True)
 def _holds_point(mcell, mc, mw, grid, gw, gh, cell):  # pragma: no cover - numba
-    # whether the sampler's grid (cells of side cell) holds a point in the square mcell (side mc, mw a row)
+    # whether the sampler's grid (cells of side cell, gw a row, padded: see _free) holds a point in the square
+    # mcell (side mc, mw a row)
     i0 = int((mcell % mw) * mc / cell)
     j0 = int((mcell // mw) * mc / cell)
     for jj in range(max(j0, 0), min(int(((mcell // mw) + 1) * mc / cell) + 1, gh)):
         for ii in range(max(i0, 0), min(int(((mcell % mw) + 1) * mc / cell) + 1, gw)):
-            q = grid[jj * gw + ii]
-            if q >= 0:
+            if grid[2 * ((jj + 2) * (gw + 4) + ii + 2)] < np.inf:
                 return True
     return False
 
@@ -175,7 +172,9 @@ def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
     cell = r / np.sqrt(2.0)
     gw = int(np.ceil(w / cell)) + 1
     gh = int(np.ceil(hgt / cell)) + 1
-    grid = np.full(gw * gh, -1, np.int64)
+    gp = gw + 4  # a row of the grid with its padding (see _free)
+    grid = np.full(2 * gp * (gh + 4), np.inf)
+    off = NBR_DJ * gp + NBR_DI
     inv_cell = 1.0 / cell  # a candidate's cells by multiplication (a division per candidate and axis cost 0.1 s)
     inv_mc = 1.0 / mc
     cap = int(1.2 * w * hgt / (r * r)) + 16  # the densest packing at distance r holds 1.155 / r^2
@@ -204,11 +203,12 @@ def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
                         continue
                     gi = int(cx * inv_cell)
                     gj = int(cy * inv_cell)
-                    if not _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):
+                    if not _free(cx, cy, (gj + 2) * gp + gi + 2, grid, off, r2):
                         continue
                     xs[n] = cx
                     ys[n] = cy
-                    grid[gj * gw + gi] = n
+                    grid[2 * ((gj + 2) * gp + gi + 2)] = cx
+                    grid[2 * ((gj + 2) * gp + gi + 2) + 1] = cy
                     active[0] = n
                     na = 1
                     n += 1
@@ -234,10 +234,11 @@ def _poisson_disk(w, hgt, r, k, seed, mask, mc, mw):  # pragma: no cover - numba
                 continue
             gi = int(cx * inv_cell)
             gj = int(cy * inv_cell)
-            if _free(cx, cy, gi, gj, grid, gw, gh, xs, ys, r2):
+            if _free(cx, cy, (gj + 2) * gp + gi + 2, grid, off, r2):
                 xs[n] = cx
                 ys[n] = cy
-                grid[gj * gw + gi] = n
+                grid[2 * ((gj + 2) * gp + gi + 2)] = cx
+                grid[2 * ((gj + 2) * gp + gi + 2) + 1] = cy
                 active[na] = n
                 na += 1
                 n += 1
