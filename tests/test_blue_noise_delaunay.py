@@ -255,3 +255,24 @@ def test_clusters_with_gaps_and_a_line_of_points():
     _both(line)
     g = np.stack(np.meshgrid(np.arange(30.0), np.arange(30.0)), -1).reshape(-1, 2) * 0.9
     _both(g + 1e-7 * rng.standard_normal(g.shape))
+
+
+def test_the_renumbered_sets_cell_lists_are_the_first_ones_in_a_row():
+    """blue_noise_points hands neighbour_graph the cell lists of the points before their renumbering (the same
+    cells, each cell's points now numbered in a row) instead of making them again: equal to cell_lists of the
+    renumbered points, and the same graph as neighbour_graph makes with its own."""
+    from polishpath.plan.points.blue_noise import neighbour_graph
+
+    rng = np.random.default_rng(4)
+    for region in (REGIONS["star"], REGIONS["annulus"], REGIONS["narrow"]):
+        pts = blue_noise_points(region, H, seed=int(rng.integers(100)), margin=0.2)
+        shuffled = pts.uv[rng.permutation(len(pts.uv))]
+        first = cell_lists(shuffled, H)
+        uv = shuffled[first[0]]
+        again = cell_lists(uv, H)
+        np.testing.assert_array_equal(again[0], np.arange(len(uv)))
+        np.testing.assert_array_equal(again[1], first[1])
+        assert again[2:] == first[2:]
+        got = neighbour_graph(uv, H, pts.polygon, cells=(np.arange(len(uv)),) + first[1:])
+        for a, b in zip(got, neighbour_graph(uv, H, pts.polygon)):
+            np.testing.assert_array_equal(a, b)

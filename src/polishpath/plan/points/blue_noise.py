@@ -310,8 +310,11 @@ def blue_noise_points(region: Region, spacing: float, *, seed: int, margin: floa
             + (f", margin {margin:.4g} mm" if margin else "") + ").",
             "Use a smaller spacing (at most about half the region's width).")
     # numbered by cell of one spacing, row by row: neighbours sit near in memory for the graph and the walk
-    uv = np.ascontiguousarray(uv[cell_lists(uv, spacing)[0]])
-    indptr, indices, triangles = neighbour_graph(uv, spacing, poly)
+    cells, cstart, cx0, cy0, W, H = cell_lists(uv, spacing)
+    uv = np.ascontiguousarray(uv[cells])
+    # the renumbered points' cell lists: the same cells, each one's points now numbered in a row
+    indptr, indices, triangles = neighbour_graph(uv, spacing, poly,
+                                                 cells=(np.arange(len(uv)), cstart, cx0, cy0, W, H))
     area = cell_areas(uv, triangles, spacing)
     return BlueNoisePoints(uv=uv, spacing=spacing, min_distance=r, margin=margin, indptr=indptr, indices=indices,
                            cell_area=area, seed=seed, polygon=poly)
@@ -666,13 +669,15 @@ EMPTY_CIRCLE_FACTOR = 1.1
 SMALL_CIRCLE_FACTOR = 0.95
 
 
-def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def neighbour_graph(uv: np.ndarray, spacing: float, poly,
+                    cells: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The kept Delaunay edges of ``uv`` (n, 2) mm inside ``poly``, and the kept triangles.
 
     An edge is kept when it is at most ``EDGE_FACTOR x spacing`` long (``LEAF_EDGE_FACTOR x spacing`` at a
     point that would otherwise have one neighbour), has an empty circle of radius at most
     ``EMPTY_CIRCLE_FACTOR x spacing`` (every Delaunay edge of a near-maximal Poisson-disk set has) and its
-    segment stays inside ``poly``.
+    segment stays inside ``poly``. ``cells``: ``cell_lists(uv, spacing)`` when the caller has it (made here
+    otherwise).
 
     Returns
     -------
@@ -688,7 +693,7 @@ def neighbour_graph(uv: np.ndarray, spacing: float, poly) -> tuple[np.ndarray, n
     # cells of one spacing (the set's own numbering: a row of cells is one run of points); each point's edges
     # are written in the order of the cells as wide as the reach of an empty circle (2 x its radius), as when
     # the candidates came from those (same bytes)
-    cells, cstart, x0, y0, W, H = cell_lists(uv, spacing)
+    cells, cstart, x0, y0, W, H = cell_lists(uv, spacing) if cells is None else cells
     cw_order = 2 * EMPTY_CIRCLE_FACTOR * spacing
     W_order = int((float(uv[:, 0].max()) - x0) / cw_order) + 1
     # edges up to TRIANGLE_EDGE_FACTOR x spacing are found so that the triangles around a gap count in the
