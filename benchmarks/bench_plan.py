@@ -21,8 +21,14 @@ commits (cd8487a) and after them (939da85), run one after the other at load 3.0-
 0.14 / blue-noise 0.50 (3.6x) -> 0.15 / 0.30 (2.0x); 10^6 1.89 / 6.24 s (3.3x) -> 1.51 / 3.14 s
 (2.1x; 2.0x wall), 571 -> 482 MB against the grid walk's 342 MB; another run at load 3.5 gave 2.8x.
 10^7 (under the big-memory lock): 73.9 s, 3.79 GB (3.7x) -> 42.9 s, 2.68 GB against the grid walk's
-20.4 s (2.1x), one piece, every guarantee held. docs/planning.md ("Speed") says where the time goes
-and what was tried.
+20.4 s (2.1x), one piece, every guarantee held. The second pass at the set (dd4b7d3 -> f996880: the
+Delaunay step's two reaches, the sampler's (x, y) grid, the cell lists made once; the same bytes), 5
+alternated rounds of ``--case grid / blue-noise 1000000`` at load 1.9-4.1, medians: grid walk 3.38
+s, blue-noise 6.23 s (set 3.73) -> 5.34 s (set 3.16), 1.84x -> 1.58x (median of the rounds' ratios
+1.88x -> 1.71x; 5 rounds before the cell-list commit at load 1.7-2.4: 1.93x -> 1.79x), RSS 476 ->
+486 MB; one ``--sets`` run at load 4.3 gave 2.11x -> 2.10x at 10^6 (grid walks 2.87 / 2.50 s) and
+1.64x -> 1.54x at 10^5: the ratio is under 2x in the medians, not yet in every run. docs/planning.md
+("Speed") says where the time goes and what was tried.
 
     PYTHONPATH=src python benchmarks/bench_plan.py --sets [--set-sizes 1e5,1e6,1e7] [--density-size 1e5] [--check-size 1e6]
 
