@@ -48,7 +48,9 @@ DEFAULT_SPACING_MM = 0.5
 #: 1-1.5 1/mm (a walk turning at every point spreads its time density there); centring each point's time centroid
 #: narrows it to 11-14 % on a flat square ("Where the walks' band RMS comes from"); the density fit given to every
 #: path (compare_planned(treatment="density-fit"), not a stage of the job) meets it on the saddle, not on the flat
-#: disc (+5 % over the fitted grid walk) nor the hemisphere (+26-37 % over the rectangular path): the grid stays
+#: disc (+5 % over the fitted grid walk) nor the hemisphere (+26-37 % over the rectangular path); the ripple fit,
+#: which fits every path its own removal (treatment="ripple-fit"), meets it on none of the three (the raster best
+#: on the flat disc and the saddle, the spiral on the hemisphere; the relaxed walk 23-52 % above): the grid stays
 DEFAULT_DWELL_POINTS = "grid"
 #: the job refuses to plan more dwell points than this (memory and time: about 1 KB and 50 us each)
 DEFAULT_MAX_POINTS = 5_000_000
