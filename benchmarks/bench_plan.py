@@ -27,7 +27,8 @@ alternated rounds of ``--case grid / blue-noise 1000000`` at load 1.9-4.1, media
 s, blue-noise 6.23 s (set 3.73) -> 5.34 s (set 3.16), 1.84x -> 1.58x (median of the rounds' ratios
 1.88x -> 1.71x; 5 rounds before the cell-list commit at load 1.7-2.4: 1.93x -> 1.79x), RSS 476 ->
 486 MB; one ``--sets`` run at load 4.3 gave 2.11x -> 2.10x at 10^6 (grid walks 2.87 / 2.50 s) and
-1.64x -> 1.54x at 10^5: the ratio is under 2x in the medians, not yet in every run. docs/planning.md
+1.64x -> 1.54x at 10^5. 15 rounds in all (three sessions): 1.88x -> 1.72x, over 2x in 3 -> 2 of them: the
+ratio is under 2x in the medians, not yet in every run. docs/planning.md
 ("Speed") says where the time goes and what was tried.
 
     PYTHONPATH=src python benchmarks/bench_plan.py --sets [--set-sizes 1e5,1e6,1e7] [--density-size 1e5] [--check-size 1e6]
