@@ -180,6 +180,26 @@ def test_the_walk_uses_only_edges_of_the_points_delaunay_triangulation():
     assert all((a, b) in dl for a, b in steps)
 
 
+def test_exactly_collinear_points_give_the_delaunay_edges():
+    """Three or more points exactly on one line (a row at y = 5 of a jittered grid; measured: ZeroDivisionError before
+    2026-12-02) build the graph, and its edges are Delaunay edges of the points, every short inside one kept."""
+    from polishpath.plan.points.blue_noise import neighbour_graph
+
+    rng = np.random.default_rng(0)
+    g = np.stack(np.meshgrid(np.arange(12.0), np.arange(12.0)), -1).reshape(-1, 2)
+    uv = g + rng.uniform(-0.2, 0.2, g.shape)
+    uv[g[:, 1] == 5, 1] = 5.0
+    indptr, indices, _ = neighbour_graph(uv, H, shapely.box(-1.0, -1.0, 13.0, 13.0))
+    ip, ix = Delaunay(uv).vertex_neighbor_vertices
+    dl = set(zip(np.repeat(np.arange(len(uv)), np.diff(ip)).tolist(), ix.tolist()))
+    mine = set(zip(np.repeat(np.arange(len(uv)), np.diff(indptr)).tolist(), indices.tolist()))
+    assert mine <= dl
+    src = np.repeat(np.arange(len(uv)), np.diff(ip))
+    short = {(a, b) for a, b, ln in zip(src.tolist(), ix.tolist(), np.hypot(*(uv[src] - uv[ix]).T)) if ln <= 1.4 * H}
+    assert short <= mine
+    assert any(uv[a, 1] == uv[b, 1] == 5.0 for a, b in mine)  # the row's own edges are there
+
+
 def test_same_seed_same_path_and_another_seed_another():
     region = Region(disc(15.0))
     a = plan(region, H, seed=21, dwell_points="blue-noise")

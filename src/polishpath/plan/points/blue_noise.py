@@ -432,7 +432,9 @@ def _near_boundary(poly, uv: np.ndarray, reach: float) -> np.ndarray:
     return grown[np.clip(cj, 0, H - 1), np.clip(ci, 0, W - 1)]
 
 
-@numba.njit(cache=True)
+# error_model="numpy": three exactly collinear points make a circle-centre divisor 0 (a point on the line of p and q:
+# its bound is never used, `bad` decides it); numba's default would raise ZeroDivisionError there (measured: no cost)
+@numba.njit(cache=True, error_model="numpy")
 def _local_delaunay(xy, cells, cstart, x0, y0, cw, W, H, cw_order, W_order, lmax, rho, eps,
                     rho_small):  # pragma: no cover - numba
     # Edges (p < q) of length <= lmax that have an empty circle of radius <= rho through p and q, and the
