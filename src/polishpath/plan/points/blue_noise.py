@@ -490,7 +490,6 @@ def _local_delaunay(xy, cells, cstart, x0, y0, cw, W, H, cw_order, W_order, lmax
         py = xy[p, 1]
         hx = int((px - x0) / cw)
         hy = int((py - y0) / cw)
-        nk = 0
         for again in range(2):  # the small reach, then (a marked point) rho's
             small = again == 0
             rr = rho_small if small else rho
